@@ -1,0 +1,1 @@
+"""The `nurimc` command-line tool."""

@@ -1,0 +1,96 @@
+"""The MC-RS485 protocol, sans-I/O: typed messages, frame codec, stream parser, units.
+
+>>> from nurimc.protocol import PositionSpeed, decode
+>>> frame = PositionSpeed(id=0, direction=0, position=18000, speed=1000).encode()
+>>> frame.hex(" ")
+'ff fe 00 07 76 01 00 46 50 03 e8'
+>>> decode(frame)
+PositionSpeed(id=0, direction=0, position=18000, speed=1000)
+"""
+
+from . import messages as _messages
+from ._tables import (
+    BAUD_RATES,
+    BROADCAST_ID,
+    DEVICE_DEFAULTS,
+    HEADER,
+    MAX_DEVICE_ID,
+    PRODUCTS,
+    PROTOCOL,
+    SPECS,
+)
+from .codec import decode, encode, make, message_class
+from .errors import (
+    DecodeError,
+    EncodeError,
+    FieldRangeError,
+    FieldTypeError,
+    MissingFieldError,
+    ProtocolError,
+    UnknownFieldError,
+    UnknownMessageError,
+)
+from .frame import build_frame, checksum
+from .message import Answer, Command, Message, Request
+from .messages import *  # noqa: F403 - one class per message, generated
+from .messages import BY_MODE, MESSAGES
+from .parser import ParserStats, StreamParser
+from .schema import FieldSpec, Kind, MessageSpec, ProductSpec
+
+
+def baud_index(rate: int) -> int:
+    """The baud-rate table index of `rate`, or ValueError listing the 18 rates."""
+    try:
+        return BAUD_RATES.index(rate)
+    except ValueError:
+        rates = ", ".join(str(r) for r in BAUD_RATES)
+        raise ValueError(f"{rate} bps is not a rate these controllers support; use one of {rates}") from None
+
+
+def answer_class(request: type[Message]) -> type[Message]:
+    """The answer class of a request class (answer mode = request mode + 0x30)."""
+    name = request.SPEC.answer
+    if name is None:
+        raise ValueError(f"{request.SPEC.name} is not a request; commands are never answered")
+    return MESSAGES[name]
+
+
+__all__ = [
+    "Answer",
+    "BAUD_RATES",
+    "BROADCAST_ID",
+    "BY_MODE",
+    "Command",
+    "DEVICE_DEFAULTS",
+    "DecodeError",
+    "EncodeError",
+    "FieldRangeError",
+    "FieldSpec",
+    "FieldTypeError",
+    "HEADER",
+    "Kind",
+    "MAX_DEVICE_ID",
+    "MESSAGES",
+    "Message",
+    "MessageSpec",
+    "MissingFieldError",
+    "PRODUCTS",
+    "PROTOCOL",
+    "ParserStats",
+    "ProductSpec",
+    "ProtocolError",
+    "Request",
+    "SPECS",
+    "StreamParser",
+    "UnknownFieldError",
+    "UnknownMessageError",
+    "answer_class",
+    "baud_index",
+    "build_frame",
+    "checksum",
+    "decode",
+    "encode",
+    "make",
+    "message_class",
+    *_messages.__all__,
+]

@@ -1,0 +1,75 @@
+"""Encode and decode whole frames (sans-I/O: bytes in, typed messages out)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ._tables import HEADER, MIN_FRAME_LENGTH
+from .errors import DecodeError, MissingFieldError, UnknownFieldError, UnknownMessageError
+from .frame import CHECKSUM_OFFSET, DATA_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
+from .message import Message
+from .messages import BY_MODE, MESSAGES
+
+
+def message_class(name: str) -> type[Message]:
+    try:
+        return MESSAGES[name]
+    except KeyError:
+        raise UnknownMessageError(
+            f"unknown message {name!r}; known messages: {', '.join(MESSAGES)}", name
+        ) from None
+
+
+def make(name: str, id: int, **fields: Any) -> Message:  # noqa: A002 - `id` is the protocol's word
+    """Build a message by its canonical name; missing or unknown fields are errors."""
+    cls = message_class(name)
+    wanted = cls.SPEC.field_names
+    for field in wanted:
+        if field not in fields:
+            raise MissingFieldError(
+                f"{name} needs the field {field!r} (fields: {', '.join(wanted) or 'none'})", name, field
+            )
+    for field in fields:
+        if field not in wanted:
+            raise UnknownFieldError(
+                f"{name} has no field {field!r} (fields: {', '.join(wanted) or 'none'})", name, field
+            )
+    return cls(id, **fields)
+
+
+def encode(message: Message) -> bytes:
+    return message.encode()
+
+
+def decode(frame: bytes | bytearray | memoryview) -> Message:
+    """Exactly one whole frame -> its message. Out-of-range field values decode as they are.
+
+    Raises DecodeError whose kind is the first failing check, in this order:
+    header, truncated, trailing, checksum, unknown_mode, size.
+    """
+    raw = bytes(frame)
+    if raw[:2] != HEADER[: len(raw[:2])]:
+        raise DecodeError("header", f"frame must start with FF FE, got {raw[:2].hex(' ').upper()}")
+    if len(raw) < MIN_FRAME_LENGTH or len(raw) < raw[SIZE_OFFSET] + 4:
+        raise DecodeError("truncated", f"frame is truncated ({len(raw)} bytes)")
+    size = raw[SIZE_OFFSET]
+    if len(raw) > size + 4:
+        raise DecodeError("trailing", f"{len(raw) - size - 4} bytes after the frame (size byte says {size})")
+    expected = ~sum(raw[ID_OFFSET:CHECKSUM_OFFSET] + raw[MODE_OFFSET:]) & 0xFF
+    if raw[CHECKSUM_OFFSET] != expected:
+        raise DecodeError(
+            "checksum", f"checksum is {raw[CHECKSUM_OFFSET]:02X}, the bytes give {expected:02X}"
+        )
+    cls = BY_MODE.get(raw[MODE_OFFSET])
+    if cls is None:
+        raise DecodeError("unknown_mode", f"unknown mode {raw[MODE_OFFSET]:02X}")
+    if size != cls.SPEC.size:
+        raise DecodeError(
+            "size", f"{cls.SPEC.name} (mode {cls.SPEC.mode:02X}) has size {cls.SPEC.size}, frame says {size}"
+        )
+    return cls(raw[ID_OFFSET], *cls.SPEC.layout.unpack_from(raw, DATA_OFFSET))
+
+
+def decode_valid(cls: type[Message], raw: bytes | bytearray, start: int) -> Message:
+    """Decode a frame already checked by the stream parser (no checks repeated)."""
+    return cls(raw[start + ID_OFFSET], *cls.SPEC.layout.unpack_from(raw, start + DATA_OFFSET))
