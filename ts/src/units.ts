@@ -1,0 +1,69 @@
+/**
+ * Physical units <-> wire integers, with the rule every language follows
+ * (docs/protocol.md): a physical value becomes the nearest wire step, halves
+ * rounded away from zero, computed in decimal so that binary floating noise
+ * (180.005 stored as 180.00499999...) never shifts the result. Wire -> physical
+ * is exact to the step's decimals (3 * 0.1 gives 0.3, not 0.30000000000000004).
+ *
+ * Units: position in degrees (0.01 deg; 0.1 deg in speed feedback, erratum 6),
+ * speed in RPM (0.1 RPM), current in amperes (0.1 A), arrival time in seconds
+ * (0.1 s), response time in microseconds (100 us), reduction ratio as n:1 (0.1).
+ */
+import type { FieldSpec } from "./schema.js";
+
+/** A number's shortest decimal form as digits * 10^exponent (exact, like Python's Decimal(repr(x))). */
+function decimalOf(value: number): { digits: bigint; exponent: number } {
+  const match = /^(-?)(\d+)(?:\.(\d+))?(?:e([+-]?\d+))?$/.exec(String(value));
+  if (match === null) throw new RangeError(`${value} is not a finite number`);
+  const [, sign = "", whole = "", fraction = "", exp = "0"] = match;
+  const digits = BigInt(sign + whole + fraction);
+  return { digits, exponent: Number(exp) - fraction.length };
+}
+
+const pow10 = (n: number): bigint => 10n ** BigInt(n);
+
+/** Physical value -> wire integer: the nearest step, halves away from zero (180.005 deg at 0.01 -> 18001). */
+export function toWire(value: number, scale: number): number {
+  if (!Number.isFinite(value)) throw new RangeError(`${value} is not a finite number`);
+  if (!Number.isFinite(scale) || scale <= 0) throw new RangeError(`scale ${scale} must be a positive number`);
+  const v = decimalOf(value);
+  const s = decimalOf(scale);
+  const shift = v.exponent - s.exponent;
+  let num = shift >= 0 ? v.digits * pow10(shift) : v.digits;
+  const den = shift >= 0 ? s.digits : s.digits * pow10(-shift);
+  const negative = num < 0n;
+  if (negative) num = -num;
+  let steps = num / den;
+  if (2n * (num % den) >= den) steps += 1n;
+  return Number(negative ? -steps : steps);
+}
+
+/** Wire integer -> physical value, exact to the scale's decimals. */
+export function fromWire(raw: number, scale: number): number {
+  const s = decimalOf(scale);
+  if (s.exponent >= 0 || !Number.isInteger(raw)) {
+    return s.exponent >= 0 ? raw * scale : Number((raw * scale).toFixed(-s.exponent));
+  }
+  return Number(`${BigInt(raw) * s.digits}e${s.exponent}`);
+}
+
+export const degreesToWire = (degrees: number, scale = 0.01): number => toWire(degrees, scale);
+export const rpmToWire = (rpm: number): number => toWire(rpm, 0.1);
+export const amperesToWire = (amperes: number): number => toWire(amperes, 0.1);
+export const secondsToWire = (seconds: number): number => toWire(seconds, 0.1);
+export const microsecondsToWire = (microseconds: number): number => toWire(microseconds, 100);
+/** 12.5 (meaning 12.5:1) -> 125. */
+export const ratioToWire = (ratio: number): number => toWire(ratio, 0.1);
+
+/** `1..65533 (0.1..6553.3 rpm)`: the wire range and, where scaled, its physical range. */
+export function describeRange(field: FieldSpec): string {
+  let text = `${field.min}..${field.max}`;
+  if (field.unit !== "" && field.scale !== 1) {
+    text += ` (${fromWire(field.min, field.scale)}..${fromWire(field.max, field.scale)} ${field.unit})`;
+  } else if (field.unit !== "" && field.unit !== "count") {
+    text += ` ${field.unit}`;
+  }
+  const names = Object.entries(field.values);
+  if (names.length > 0) text += ` (${names.map(([v, n]) => `${v} ${n}`).join(", ")})`;
+  return text;
+}
