@@ -19,7 +19,7 @@ from ._tables import (
     PROTOCOL,
     SPECS,
 )
-from .codec import decode, encode, make, message_class
+from .codec import decode, encode, make, make_command, make_request, message_class
 from .errors import (
     DecodeError,
     EncodeError,
@@ -91,6 +91,8 @@ __all__ = [
     "decode",
     "encode",
     "make",
+    "make_command",
+    "make_request",
     "message_class",
     *_messages.__all__,
 ]

@@ -7,7 +7,7 @@ from typing import Any
 from ._tables import HEADER, MIN_FRAME_LENGTH
 from .errors import DecodeError, MissingFieldError, UnknownFieldError, UnknownMessageError
 from .frame import CHECKSUM_OFFSET, DATA_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
-from .message import Message
+from .message import Command, Message, Request
 from .messages import BY_MODE, MESSAGES
 
 
@@ -15,9 +15,7 @@ def message_class(name: str) -> type[Message]:
     try:
         return MESSAGES[name]
     except KeyError:
-        raise UnknownMessageError(
-            f"unknown message {name!r}; known messages: {', '.join(MESSAGES)}", name
-        ) from None
+        raise UnknownMessageError(f"unknown message {name!r}; known messages: {', '.join(MESSAGES)}", name) from None
 
 
 def make(name: str, id: int, **fields: Any) -> Message:  # noqa: A002 - `id` is the protocol's word
@@ -35,6 +33,22 @@ def make(name: str, id: int, **fields: Any) -> Message:  # noqa: A002 - `id` is 
                 f"{name} has no field {field!r} (fields: {', '.join(wanted) or 'none'})", name, field
             )
     return cls(id, **fields)
+
+
+def make_request(name: str, id: int) -> Request:  # noqa: A002
+    """A feedback request by name (TypeError if `name` is not a request)."""
+    message = make(name, id)
+    if not isinstance(message, Request):
+        raise TypeError(f"{name} is not a feedback request")
+    return message
+
+
+def make_command(name: str, id: int, **fields: Any) -> Command:  # noqa: A002
+    """A command by name (TypeError if `name` is not a command)."""
+    message = make(name, id, **fields)
+    if not isinstance(message, Command):
+        raise TypeError(f"{name} is not a command")
+    return message
 
 
 def encode(message: Message) -> bytes:
@@ -57,9 +71,7 @@ def decode(frame: bytes | bytearray | memoryview) -> Message:
         raise DecodeError("trailing", f"{len(raw) - size - 4} bytes after the frame (size byte says {size})")
     expected = ~sum(raw[ID_OFFSET:CHECKSUM_OFFSET] + raw[MODE_OFFSET:]) & 0xFF
     if raw[CHECKSUM_OFFSET] != expected:
-        raise DecodeError(
-            "checksum", f"checksum is {raw[CHECKSUM_OFFSET]:02X}, the bytes give {expected:02X}"
-        )
+        raise DecodeError("checksum", f"checksum is {raw[CHECKSUM_OFFSET]:02X}, the bytes give {expected:02X}")
     cls = BY_MODE.get(raw[MODE_OFFSET])
     if cls is None:
         raise DecodeError("unknown_mode", f"unknown mode {raw[MODE_OFFSET]:02X}")

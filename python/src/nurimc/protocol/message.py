@@ -14,8 +14,7 @@ def check_value(spec: MessageSpec, field: FieldSpec, value: object) -> int:
     """The value as an int, or an error naming message, field, value, range and unit."""
     if not isinstance(value, int) or isinstance(value, bool):
         raise FieldTypeError(
-            f"{spec.name}.{field.name} = {value!r} is not an integer wire value; "
-            f"allowed: {field.describe_range()}",
+            f"{spec.name}.{field.name} = {value!r} is not an integer wire value; allowed: {field.describe_range()}",
             spec.name,
             field.name,
         )

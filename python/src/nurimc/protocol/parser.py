@@ -80,10 +80,7 @@ class StreamParser:
                 cls = BY_MODE[buf[pos + MODE_OFFSET]]
                 end = pos + buf[pos + SIZE_OFFSET] + 4
                 if end <= n:
-                    expected = (
-                        ~(sum(buf[pos + 2 : pos + CHECKSUM_OFFSET]) + sum(buf[pos + MODE_OFFSET : end]))
-                        & 0xFF
-                    )
+                    expected = ~(sum(buf[pos + 2 : pos + CHECKSUM_OFFSET]) + sum(buf[pos + MODE_OFFSET : end])) & 0xFF
                     if buf[pos + CHECKSUM_OFFSET] == expected:
                         out.append(decode_valid(cls, buf, pos))
                         stats.frames += 1

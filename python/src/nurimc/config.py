@@ -1,0 +1,172 @@
+"""Safe configuration: ID and baud changes that verify and recover, guarded factory reset,
+backup and restore of every setting, and recovery of a runaway motor.
+
+A controller never answers a settings command, so each change here is proven by reading
+back (or, for ID and baud, by pinging at the new address) before it is reported done.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .client.actions import Procedure, Wait
+from .client.core import BusCore
+from .errors import ConfirmationRequired, IdInUse, NoAnswer, SettingNotApplied, UnexpectedAnswer
+from .motor import EEPROM_SETTLE, VERIFY_WINDOW, MotorProcedures
+from .protocol import (
+    BAUD_RATES,
+    DEVICE_DEFAULTS,
+    PROTOCOL,
+    FactoryReset,
+    RequestPing,
+    SetBaud,
+    SetControl,
+    SetId,
+    baud_index,
+)
+from .settings import SETTINGS
+
+BACKUP_FORMAT = "nurimc-backup/1"
+
+
+def answers(core: BusCore, device_id: int, window: float = 0.0) -> Procedure[bool]:
+    """Does device_id answer a ping (retrying for `window` seconds, e.g. while EEPROM is busy)?"""
+    waited = 0.0
+    while True:
+        try:
+            yield from core.ask(RequestPing(device_id), retries=1)
+            return True
+        except UnexpectedAnswer:
+            return True  # something answers at that ID
+        except NoAnswer:
+            if waited >= window:
+                return False
+            yield Wait(0.05)
+            waited += 0.05
+
+
+def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
+    """Give controller `old` the ID `new`; refused if `new` already answers."""
+    if not 0 <= new <= 254:
+        raise ValueError(f"new ID {new} is out of range 0..254")
+    if old == new:
+        return
+    if (yield from answers(core, new)):
+        raise IdInUse(f"ID {new} already answers at {core.baudrate} bps; pick a free ID (see `nurimc scan`)")
+    if not (yield from answers(core, old)):
+        raise NoAnswer("request_ping", old, core.baudrate, core.retries + 1)
+    yield from core.tell(SetId(old, new))
+    yield Wait(EEPROM_SETTLE)
+    if (yield from answers(core, new, VERIFY_WINDOW)):
+        core.response_times.pop(old, None)
+        return
+    still_old = yield from answers(core, old)
+    raise SettingNotApplied(
+        f"ID {old} -> {new} did not take: "
+        + (f"the controller still answers at ID {old}" if still_old else "it answers at neither ID; run `nurimc scan`")
+    )
+
+
+def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
+    """Switch a controller (and the host) to `rate`, verify there; if it is lost, find it.
+
+    Returns the rate the controller answers at (= rate on success). Raises SettingNotApplied
+    if it stayed at the old rate or turned up elsewhere (the bus is then left at that rate).
+    """
+    index = baud_index(rate)
+    old = core.baudrate
+    if not (yield from answers(core, device_id)):
+        raise NoAnswer("request_ping", device_id, old, core.retries + 1)
+    yield from core.tell(SetBaud(device_id, index))
+    yield Wait(EEPROM_SETTLE)
+    yield from core.set_baud(rate)
+    if (yield from answers(core, device_id, VERIFY_WINDOW)):
+        return rate
+    for candidate in (old, *[r for r in BAUD_RATES if r not in (old, rate)]):
+        yield from core.set_baud(candidate)
+        if (yield from answers(core, device_id)):
+            raise SettingNotApplied(
+                f"ID {device_id} did not move to {rate} bps; it answers at {candidate} bps (the bus is now there)"
+            )
+    yield from core.set_baud(old)
+    raise SettingNotApplied(
+        f"ID {device_id} is lost after the baud change: no answer at any rate; check wiring and power"
+    )
+
+
+def factory_reset(core: BusCore, device_id: int, confirm: bool = False) -> Procedure[None]:
+    """Restore the document's defaults. The controller comes back as ID 0 at 9,600 bps."""
+    if not confirm:
+        raise ConfirmationRequired(
+            f"factory reset of ID {device_id} erases every setting (it returns as ID 0 at 9600 bps); "
+            "pass confirm=True (CLI: --yes) to do it"
+        )
+    yield from core.tell(FactoryReset(device_id))
+    core.response_times.pop(device_id, None)
+    yield Wait(EEPROM_SETTLE * 2)
+
+
+def recover_runaway(motor: MotorProcedures) -> Procedure[str]:
+    """A motor that runs away (motor or encoder wired the other way round): release it and flip its
+    control direction (the document's appendix). It is left released; re-enable with hold()."""
+    yield from motor.core.tell(SetControl(motor.id, 1))
+    direction = yield from motor.get("direction")
+    flipped = "cw" if direction == "ccw" else "ccw"
+    yield from motor.set("direction", flipped)
+    yield from motor.release()
+    return flipped
+
+
+def backup(motors: Sequence[MotorProcedures]) -> Procedure[dict[str, Any]]:
+    """Every setting of every motor, as a JSON-ready document."""
+    entries = []
+    for motor in motors:
+        settings = yield from motor.read_settings()
+        entries.append(
+            {"id": motor.id, "baudrate": motor.core.baudrate, "product": motor.profile.key, "settings": settings}
+        )
+    return {
+        "format": BACKUP_FORMAT,
+        "protocol": PROTOCOL,
+        "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        "motors": entries,
+    }
+
+
+def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Procedure[list[str]]:
+    """Write back every setting that differs (each verified); returns what was changed."""
+    if document.get("format") != BACKUP_FORMAT:
+        raise ValueError(f"not a nurimc backup (format {document.get('format')!r}, expected {BACKUP_FORMAT!r})")
+    by_id = {m.id: m for m in motors}
+    changed: list[str] = []
+    for entry in document["motors"]:
+        motor = by_id.get(entry["id"])
+        if motor is None:
+            raise ValueError(f"the backup has ID {entry['id']}, which is not among the motors to restore")
+        current = yield from motor.read_settings()
+        for name, value in entry["settings"].items():
+            s = SETTINGS.get(name)
+            if s is None or s.command is None or name == "control" or current.get(name) == value:
+                continue  # read-only, unknown, or already right; control is left as it is (safety)
+            yield from motor.set(name, value)
+            changed.append(f"ID {motor.id} {name}: {current.get(name)} -> {value}")
+    return changed
+
+
+def save_backup(document: dict[str, Any], path: str | Path) -> None:
+    Path(path).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+
+
+def load_backup(path: str | Path) -> dict[str, Any]:
+    try:
+        document: dict[str, Any] = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as err:
+        raise ValueError(f"cannot read backup {path}: {err}") from err
+    return document
+
+
+DEFAULTS = DEVICE_DEFAULTS

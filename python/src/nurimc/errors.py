@@ -1,0 +1,75 @@
+"""Errors of the bus client. Each message says what went wrong and what to do next."""
+
+from __future__ import annotations
+
+from .protocol.errors import ProtocolError
+
+__all__ = [
+    "ConfirmationRequired",
+    "CorruptedAnswer",
+    "IdInUse",
+    "NoAnswer",
+    "NurimcError",
+    "PortError",
+    "ProtocolError",
+    "SettingNotApplied",
+    "UnexpectedAnswer",
+]
+
+
+class NurimcError(Exception):
+    """Base class of every error of the bus client."""
+
+
+class PortError(NurimcError):
+    """The serial port could not be opened or used. The message includes the fix."""
+
+
+NO_ANSWER_CAUSES = (
+    "the controller is at another baud rate (try `nurimc scan`)",
+    "no controller has this ID",
+    "A/B wires swapped or loose, or no common ground",
+    "missing 120 ohm termination on a long bus",
+    "the controller is unpowered or busy writing its settings",
+)
+
+
+class NoAnswer(NurimcError):
+    """Nothing valid came back in time."""
+
+    def __init__(self, request: str, device_id: int, baud: int, attempts: int, detail: str = "") -> None:
+        causes = "; ".join(NO_ANSWER_CAUSES)
+        extra = f" ({detail})" if detail else ""
+        super().__init__(
+            f"no answer from ID {device_id} to {request} at {baud} bps after {attempts} "
+            f"attempt{'s' if attempts != 1 else ''}{extra}. Likely causes: {causes}"
+        )
+        self.request, self.device_id, self.baud, self.attempts = request, device_id, baud, attempts
+
+
+class CorruptedAnswer(NoAnswer):
+    """Bytes came back but no valid frame (bad checksum, noise, colliding answers)."""
+
+    def __init__(self, request: str, device_id: int, baud: int, attempts: int, detail: str) -> None:
+        super().__init__(request, device_id, baud, attempts, detail)
+        self.args = (
+            f"corrupted answer from ID {device_id} to {request} at {baud} bps ({detail}). "
+            "Likely causes: noise on the line (termination, grounding, cable), two controllers "
+            "with the same ID, or a wrong baud rate",
+        )
+
+
+class UnexpectedAnswer(NurimcError):
+    """A valid frame came back that does not answer the request."""
+
+
+class SettingNotApplied(NurimcError):
+    """A setting read back differs from what was written: the change did not take."""
+
+
+class IdInUse(NurimcError):
+    """The requested new ID already answers on the bus."""
+
+
+class ConfirmationRequired(NurimcError):
+    """A destructive operation was asked for without explicit confirmation."""

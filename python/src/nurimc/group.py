@@ -1,0 +1,90 @@
+"""Many motors at once: commands back to back, reads in the least bus time.
+
+- `command`: one write carrying every command (no answers to wait for).
+- `read_states`: one request per motor, each answered before the next (half-duplex), with
+  deadlines from the wire so a missing motor costs milliseconds, not a fixed timeout.
+- `stagger` + `read_states_broadcast`: space the motors' response times so that a single
+  broadcast request is answered by all of them in turn. Outside the document's §17 (requests
+  to ID 0xFF); use it where the controllers answer broadcast requests.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from .client.actions import Procedure
+from .errors import NoAnswer, UnexpectedAnswer
+from .motor import MotorProcedures, MotorState
+from .protocol import Command, RequestPosition, SetResponseTime
+from .settings import SETTINGS
+
+if TYPE_CHECKING:
+    from .client.sync import Bus
+
+FEEDBACK_LENGTH = 12  # bytes of a position feedback frame
+
+
+def read_states(motors: Sequence[MotorProcedures]) -> Procedure[dict[int, MotorState | Exception]]:
+    """Each motor's state; a motor that does not answer gets its error instead of stopping the rest."""
+    out: dict[int, MotorState | Exception] = {}
+    for motor in motors:
+        try:
+            out[motor.id] = yield from motor.read_state()
+        except (NoAnswer, UnexpectedAnswer) as err:
+            out[motor.id] = err
+    return out
+
+
+def stagger_slot(baudrate: int) -> int:
+    """Response-time units (100 us) between two motors' answers: one feedback frame plus half again."""
+    return max(1, math.ceil(1.5 * FEEDBACK_LENGTH * 10 / baudrate / 100e-6))
+
+
+def stagger(motors: Sequence[MotorProcedures], baudrate: int) -> Procedure[int]:
+    """Give motor k the response time (k + 1) * slot, verified; returns the slot in 100 us units."""
+    slot = stagger_slot(baudrate)
+    if slot * len(motors) > 254:
+        raise ValueError(
+            f"{len(motors)} motors need {slot * len(motors)} response-time units at {baudrate} bps but "
+            f"254 is the most; stagger at most {254 // slot} motors at this rate, or use a faster rate"
+        )
+    for k, motor in enumerate(motors):
+        raw = (k + 1) * slot
+        yield from motor.write_verified(SETTINGS["response-time"], SetResponseTime(motor.id, raw), raw)
+    return slot
+
+
+def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Procedure[dict[int, MotorState]]:
+    """One broadcast position request, every staggered motor answering in turn."""
+    core = motors[0].core
+    window = (len(motors) + 1) * slot * 100e-6 + core.timing.wire_time(6 + FEEDBACK_LENGTH, core.baudrate)
+    window += 2 * core.timing.latency + core.timing.margin
+    answers, _ = yield from core.broadcast_ask(RequestPosition, window)
+    by_id = {m.id: m for m in motors}
+    return {a.id: by_id[a.id].state_from(a) for a in answers if a.id in by_id}
+
+
+class Group:
+    """Motors of one sync Bus used together."""
+
+    def __init__(self, bus: Bus, ids: Sequence[int], product: str = "mc") -> None:
+        self.bus = bus
+        self.motors = [bus.motor(i, product) for i in ids]
+        self.slot: int | None = None
+
+    def command(self, commands: Sequence[Command]) -> None:
+        self.bus.send(*commands)
+
+    def read_states(self) -> dict[int, MotorState | Exception]:
+        return self.bus.run(read_states([m.procedures for m in self.motors]))
+
+    def stagger(self) -> int:
+        self.slot = self.bus.run(stagger([m.procedures for m in self.motors], self.bus.baudrate))
+        return self.slot
+
+    def read_states_broadcast(self) -> dict[int, MotorState]:
+        if self.slot is None:
+            raise RuntimeError("call stagger() first: the motors' response times must be spaced")
+        return self.bus.run(read_states_broadcast([m.procedures for m in self.motors], self.slot))

@@ -1,0 +1,102 @@
+"""Every controller setting by name, in physical units: one table for library, CLI and console.
+
+A setting is read with its feedback request and written with its command; settings that
+share a command (Kp, Ki, Kd and rated current) are written together, read-modify-write.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .protocol import SPECS, FieldRangeError, FieldSpec, MessageSpec, units
+
+
+@dataclass(frozen=True, slots=True)
+class Setting:
+    name: str  # the CLI's name, e.g. "position-kp"
+    answer: str  # answer message, e.g. "position_gains"
+    field: str  # its field, e.g. "kp"
+    command: str | None  # command that writes it (None: read-only)
+    doc: str
+
+    @property
+    def spec(self) -> FieldSpec:
+        return next(f for f in self.answer_spec.fields if f.name == self.field)
+
+    @property
+    def answer_spec(self) -> MessageSpec:
+        return SPECS[self.answer]
+
+    @property
+    def request(self) -> str:
+        request = SPECS[self.answer].request
+        assert request is not None
+        return request
+
+    @property
+    def unit(self) -> str:
+        return {"us": "µs", "ratio": ":1", "count": ""}.get(self.spec.unit, self.spec.unit)
+
+    def to_wire(self, value: object) -> int:
+        """A physical value (number, '300us', 'cw', 'on', '12.5') -> the wire integer, range-checked."""
+        spec = self.spec
+        names = {name: raw for raw, name in spec.values}
+        if isinstance(value, str) and value.strip().lower() in names:
+            return names[value.strip().lower()]
+        try:
+            number = units.parse_quantity(value, spec.unit) if isinstance(value, str) else float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            choices = f" or one of {', '.join(names)}" if names else ""
+            raise FieldRangeError(self.name, "value", value, f"a number in {self.unit or 'units'}{choices}") from None
+        raw = units.to_wire(number, spec.scale) if spec.unit else round(number)
+        if not spec.min <= raw <= spec.max:
+            raise FieldRangeError(self.name, "value", value, self.describe_range())
+        return raw
+
+    def to_physical(self, raw: int) -> float | int | str:
+        names = dict(self.spec.values)
+        if raw in names:
+            return names[raw]
+        return units.from_wire(raw, self.spec.scale) if self.spec.unit else raw
+
+    def describe_range(self) -> str:
+        spec = self.spec
+        if spec.values:
+            return " or ".join(name for _, name in spec.values)
+        low, high = self.to_physical(spec.min), self.to_physical(spec.max)
+        return f"{low}..{high}{' ' + self.unit if self.unit else ''}"
+
+
+def _gains(prefix: str, answer: str, command: str) -> list[Setting]:
+    return [
+        Setting(f"{prefix}-kp", answer, "kp", command, f"{prefix} controller proportional gain"),
+        Setting(f"{prefix}-ki", answer, "ki", command, f"{prefix} controller integral gain"),
+        Setting(f"{prefix}-kd", answer, "kd", command, f"{prefix} controller derivative gain"),
+        Setting(f"{prefix}-rated-current", answer, "rated_current", command, f"{prefix} controller current limit (A)"),
+    ]
+
+
+SETTINGS: dict[str, Setting] = {
+    s.name: s
+    for s in [
+        *_gains("position", "position_gains", "set_position_gains"),
+        *_gains("speed", "speed_gains", "set_speed_gains"),
+        Setting("response-time", "response_time", "response_time", "set_response_time", "delay before answering (µs)"),
+        Setting("rated-speed", "rated_speed", "rated_speed", "set_rated_speed", "motor rated speed (RPM)"),
+        Setting("resolution", "resolution", "resolution", "set_resolution", "encoder pulses (MC) or poles (BLMC-H)"),
+        Setting("ratio", "ratio", "ratio", "set_ratio", "reduction ratio n:1"),
+        Setting("control", "control", "control", "set_control", "on (motor held) or off (released)"),
+        Setting("position-mode", "position_mode", "position_mode", "set_position_mode", "absolute or relative"),
+        Setting("direction", "direction", "direction", "set_direction", "control direction ccw or cw"),
+        Setting("firmware", "firmware", "version", None, "firmware version (read-only)"),
+    ]
+}
+
+
+def setting(name: str) -> Setting:
+    """Look a setting up by name ('position_kp' and 'position-kp' both work)."""
+    key = name.strip().lower().replace("_", "-")
+    try:
+        return SETTINGS[key]
+    except KeyError:
+        raise KeyError(f"unknown setting {name!r}; settings: {', '.join(SETTINGS)}, id, baud") from None

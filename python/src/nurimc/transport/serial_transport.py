@@ -1,0 +1,115 @@
+"""A transport over any pyserial port or URL: device paths, socket://, rfc2217://, loop://, sim://."""
+
+from __future__ import annotations
+
+import errno
+import os
+import select
+import time
+from typing import Any
+
+import serial
+
+from ..errors import PortError
+from .latency import estimate_latency
+
+
+def _port_error(url: str, err: Exception) -> PortError:
+    """Translate pyserial/OS errors into one line that says what to do."""
+    code = getattr(err, "errno", None)
+    text = str(err)
+    if code == errno.ENOENT or "No such file" in text or ("could not open port" in text and "[Errno 2]" in text):
+        return PortError(
+            f"port {url} not found: check the adapter is plugged in and the path is right "
+            "(list ports with `python -m serial.tools.list_ports`)"
+        )
+    if code == errno.EACCES or "Permission denied" in text or "[Errno 13]" in text:
+        return PortError(
+            f"permission denied on {url}: add your user to the dialout group "
+            "(`sudo usermod -aG dialout $USER`, then log out and back in)"
+        )
+    if code in (errno.EBUSY, errno.EAGAIN) or "busy" in text.lower() or "[Errno 11]" in text:
+        return PortError(f"port {url} is busy: another program has it open; close that program first")
+    return PortError(f"cannot use port {url}: {text}")
+
+
+class SerialTransport:
+    """Transport over a pyserial port. Reads on file-descriptor ports use select() directly,
+    so a per-read timeout costs no termios reconfiguration."""
+
+    def __init__(self, port: Any, url: str, latency: float | None = None) -> None:
+        self.port = port
+        self.url = url
+        self.latency = estimate_latency(url)[0] if latency is None else latency
+        self._fd: int | None = None
+        try:
+            self._fd = port.fileno()
+        except (AttributeError, OSError, ValueError, NotImplementedError):
+            self._fd = None
+
+    @property
+    def baudrate(self) -> int:
+        return int(self.port.baudrate)
+
+    @baudrate.setter
+    def baudrate(self, rate: int) -> None:
+        try:
+            self.port.baudrate = rate
+        except (serial.SerialException, OSError, ValueError) as err:
+            raise PortError(f"{self.url}: cannot set {rate} bps: {err}") from err
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.port.write(data)
+        except (serial.SerialException, OSError) as err:
+            raise _port_error(self.url, err) from err
+
+    def read(self, max_bytes: int, timeout: float) -> bytes:
+        try:
+            if self._fd is not None:
+                return self._read_fd(self._fd, max_bytes, timeout)
+            if self.port.timeout != timeout:
+                self.port.timeout = max(timeout, 0.0)
+            return bytes(self.port.read(max_bytes))
+        except (serial.SerialException, OSError) as err:
+            raise _port_error(self.url, err) from err
+
+    @staticmethod
+    def _read_fd(fd: int, max_bytes: int, timeout: float) -> bytes:
+        data = b""
+        deadline = time.monotonic() + timeout
+        while len(data) < max_bytes:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not select.select([fd], [], [], remaining)[0]:
+                break
+            chunk = os.read(fd, max_bytes - len(data))
+            if not chunk:
+                raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+            data += chunk
+        return data
+
+    def discard_input(self) -> bytes:
+        stale = b""
+        try:
+            while self.port.in_waiting:
+                stale += self.port.read(self.port.in_waiting)
+        except (serial.SerialException, OSError) as err:
+            raise _port_error(self.url, err) from err
+        return stale
+
+    def close(self) -> None:
+        self.port.close()
+
+
+def open_transport(url: str, baudrate: int = 9600, latency: float | None = None) -> SerialTransport:
+    """Open a device path or any pyserial URL (sim:// needs nurimc.sim, imported here on demand)."""
+    if url.startswith("sim://"):
+        import nurimc.sim  # noqa: F401 - registers the sim:// URL handler
+    try:
+        options: dict[str, Any] = {"baudrate": baudrate, "timeout": 0.1}
+        if "://" not in url:
+            options["exclusive"] = True  # two programs on one bus would garble each other
+        port = serial.serial_for_url(url, **options)
+    except (serial.SerialException, OSError, ValueError) as err:
+        raise _port_error(url, err) from err
+    return SerialTransport(port, url, latency)
