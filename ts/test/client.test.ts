@@ -1,0 +1,158 @@
+import { describe, expect, it } from "vitest";
+import { Bus } from "../src/bus/client.js";
+import { BusClosedError, BusError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "../src/bus/errors.js";
+import { receive } from "../src/bus/port.js";
+import { answerTimeoutMs, wireTimeMs } from "../src/bus/timing.js";
+import { decode, encode, make, type Message } from "../src/codec.js";
+import { FieldRangeError } from "../src/errors.js";
+import { toHex } from "../src/frame.js";
+import { concat, FakePort } from "./fake-port.js";
+
+const feedback = (id: number, position = 18000): Message => make("position_feedback", id, { direction: 1, position, speed: 25, current: 3 });
+
+/** A controller at each of `ids` that answers position requests and pings. */
+function answering(ids: number[]) {
+  return (written: Uint8Array): Uint8Array | null => {
+    const request = decode(written);
+    if (!ids.includes(request.id)) return null;
+    if (request.name === "request_position") return encode(feedback(request.id));
+    if (request.name === "request_ping") return encode(make("ping", request.id, {}));
+    return null;
+  };
+}
+
+const fast = { adapterLatencyMs: 15 }; // short timeouts for silence tests; answers come within a few ms
+
+describe("bus client", () => {
+  it("returns the answer that matches the request's ID and answer mode", async () => {
+    const port = new FakePort(answering([4]));
+    const bus = new Bus(port, fast);
+    const answer = await bus.request(make("request_position", 4, {}));
+    expect(answer).toEqual(feedback(4));
+    expect(answer.position).toBe(18000); // typed: the answer of request_position is position_feedback
+    expect(port.writes.map(toHex)).toEqual(["fffe040258a1"]);
+  });
+
+  it("skips the adapter's echo, noise and other IDs' frames before the answer", async () => {
+    const port = new FakePort((w) => [w, new Uint8Array([0x00, 0xff, 0x13]), encode(feedback(9)), encode(feedback(4))]);
+    const bus = new Bus(port, fast);
+    expect(await bus.request(make("request_position", 4, {}))).toEqual(feedback(4));
+    expect(bus.stats).toMatchObject({ echoes: 1, unexpectedFrames: 1, retries: 0 });
+  });
+
+  it("discards stale bytes that arrived before the request", async () => {
+    const port = new FakePort(answering([2]));
+    const bus = new Bus(port, fast);
+    port.inject(encode(feedback(2, 1))); // a late answer to some earlier request
+    port.inject(encode(feedback(2, 2)).subarray(0, 5)); // and half of another
+    expect((await bus.request(make("request_position", 2, {}))).position).toBe(18000);
+    expect(bus.stats.staleFrames).toBe(1);
+  });
+
+  it("retries a request that got no answer, then succeeds", async () => {
+    let calls = 0;
+    const port = new FakePort((w) => (++calls === 1 ? null : answering([1])(w)));
+    const bus = new Bus(port, fast);
+    expect(await bus.request(make("request_ping", 1, {}))).toEqual(make("ping", 1, {}));
+    expect(port.writes).toHaveLength(2);
+    expect(bus.stats.retries).toBe(1);
+  });
+
+  it("gives up after the retries with NoAnswerError naming the likely causes", async () => {
+    const port = new FakePort(() => null, 9600);
+    const bus = new Bus(port, { ...fast, retries: 1 });
+    const failure = bus.request(make("request_ping", 7, {}));
+    await expect(failure).rejects.toBeInstanceOf(NoAnswerError);
+    await expect(failure).rejects.toThrow(/no answer to request_ping to ID 7 after 2 attempt\(s\).*9600 bps.*wrong|not at 9600 bps/);
+    expect(port.writes).toHaveLength(2);
+    expect(bus.stats.noAnswer).toBe(1);
+  });
+
+  it("reports garbage instead of an answer as a corrupted answer", async () => {
+    const garbled = encode(feedback(3));
+    garbled[8] = garbled[8]! ^ 0x10; // a flipped bit: the checksum no longer fits
+    const port = new FakePort(() => garbled);
+    const bus = new Bus(port, { ...fast, retries: 0 });
+    const failure = bus.request(make("request_position", 3, {}));
+    await expect(failure).rejects.toBeInstanceOf(CorruptedAnswerError);
+    await expect(failure).rejects.toThrow(/1 bad checksum/);
+  });
+
+  it("reports a valid frame that is not the answer as unexpected", async () => {
+    const port = new FakePort(() => encode(make("ping", 3, {})));
+    const bus = new Bus(port, { ...fast, retries: 0 });
+    await expect(bus.request(make("request_position", 3, {}))).rejects.toBeInstanceOf(UnexpectedAnswerError);
+  });
+
+  it("sends commands once without waiting, and never repeats one (a relative move must not run twice)", async () => {
+    const port = new FakePort(() => null);
+    const bus = new Bus(port, { adapterLatencyMs: 600_000 }); // waiting for an answer would time the test out
+    await bus.send(make("set_position_mode", 1, { position_mode: 1 }));
+    await bus.send(make("position_speed", 1, { direction: 0, position: 9000, speed: 100 }));
+    expect(port.writes.map(toHex)).toEqual([toHex(encode(make("set_position_mode", 1, { position_mode: 1 }))), "fffe010747010023280064"]);
+    expect(bus.stats.commands).toBe(2);
+  });
+
+  it("refuses to send a request as a command, a command as a request, and broadcast requests", async () => {
+    const bus = new Bus(new FakePort(), fast);
+    await expect(bus.send(make("request_ping", 1, {}))).rejects.toThrow(/not a command; use request\(\)/);
+    await expect(bus.request(make("set_control", 1, { control: 1 }))).rejects.toThrow(/commands are sent with send\(\)/);
+    await expect(bus.request({ name: "request_ping", id: 255 })).rejects.toBeInstanceOf(FieldRangeError);
+    await expect(bus.setBaudRate(12345)).rejects.toThrow(/use one of 110, 300/);
+  });
+
+  it("serialises concurrent calls: one transaction on the wire at a time", async () => {
+    const events: string[] = [];
+    const port = new FakePort((w) => {
+      events.push(`write ${decode(w).id}`);
+      return answering([1, 2])(w);
+    });
+    const bus = new Bus(port, fast);
+    const [a, b] = await Promise.all([bus.request(make("request_ping", 1, {})), bus.request(make("request_ping", 2, {})).then((m) => (events.push("answer 2"), m))]);
+    expect([a.id, b.id]).toEqual([1, 2]);
+    expect(events).toEqual(["write 1", "write 2", "answer 2"]);
+  });
+
+  it("computes the timeout from baud rate, frame lengths, response time and adapter latency", () => {
+    expect(wireTimeMs(12, 9600)).toBeCloseTo(12.5, 6);
+    const t = answerTimeoutMs({ requestBytes: 6, answerBytes: 12, baudRate: 9600, responseTimeUs: 100, adapterLatencyMs: 20 });
+    expect(t).toBeCloseTo(6.25 + 0.1 + 12.5 + 20, 6);
+    const bus = new Bus(new FakePort(() => null, 110), { adapterLatencyMs: 20, responseTimeUs: 25400 });
+    expect(bus.timeoutMs(make("request_position", 0, {}))).toBeCloseTo((18 * 10 * 1000) / 110 + 25.4 + 20, 6);
+  });
+
+  it("fails every call after the port fails or the bus is closed", async () => {
+    const port = new FakePort(answering([1]));
+    const bus = new Bus(port, fast);
+    port.fail(new Error("device unplugged"));
+    await expect(bus.request(make("request_ping", 1, {}))).rejects.toThrow(/device unplugged/);
+    const other = new Bus(new FakePort(answering([1])), fast);
+    await other.close();
+    await expect(other.send(make("set_control", 1, { control: 1 }))).rejects.toBeInstanceOf(BusClosedError);
+    expect(new BusClosedError("x")).toBeInstanceOf(BusError);
+  });
+
+  it("reports every frame sent and received to the traffic listener", async () => {
+    const seen: string[] = [];
+    const bus = new Bus(new FakePort(answering([5])), { ...fast, onTraffic: (e) => seen.push(`${e.direction} ${e.message.name}`) });
+    await bus.request(make("request_ping", 5, {}));
+    expect(seen).toEqual(["tx request_ping", "rx ping"]);
+  });
+
+  it("delivers received bytes as an async iterator too", async () => {
+    const port = new FakePort();
+    const abort = new AbortController();
+    const got: number[] = [];
+    const reading = (async () => {
+      for await (const chunk of receive(port, abort.signal)) {
+        got.push(...chunk);
+        if (got.length >= 3) abort.abort();
+      }
+    })();
+    port.inject(new Uint8Array([1, 2]));
+    port.inject(concat(new Uint8Array([3])));
+    await reading;
+    expect(got).toEqual([1, 2, 3]);
+    expect(port.listeners).toBe(0);
+  });
+});
