@@ -30,6 +30,7 @@ def version() -> None:
 
 def _register() -> None:
     from . import demo  # noqa: F401 - registers its command
+    from . import sim_cmd  # noqa: F401
 
 
 def main() -> None:

@@ -1,0 +1,134 @@
+"""The simulator's command line: `nurimc sim ...` and `python -m nurimc.sim ...` (same options)."""
+
+from __future__ import annotations
+
+import logging
+import signal
+import sys
+import threading
+from typing import Annotated, Any
+
+import typer
+
+from .bus import SimBus, describe
+from .faults import FaultConfig
+from .options import OptionError, check_baud, parse_ids, parse_motor
+from .settings import PRODUCT_NAMES
+from .store import StateError
+
+
+def sim(
+    link: Annotated[str | None, typer.Option(help="Create a symlink at PATH to the pseudo-terminal.")] = None,
+    tcp: Annotated[
+        int | None, typer.Option(help="Also serve raw TCP on this port (socket:// URLs); 0 picks one.")
+    ] = None,
+    host: Annotated[str, typer.Option(help="Address the TCP server listens on.")] = "127.0.0.1",
+    ids: Annotated[
+        str | None, typer.Option(help="Controller IDs '0,1,2', or a count N for IDs 0..N-1 ('5,' is just ID 5).")
+    ] = None,
+    baud: Annotated[int, typer.Option(help="Rate of the --ids controllers (and of TCP clients).")] = 9600,
+    motor: Annotated[
+        list[str] | None, typer.Option(help="A controller at its own rate, ID@RATE (repeatable), e.g. 3@57600.")
+    ] = None,
+    product: Annotated[str, typer.Option(help="Product: mc or blmc-h.")] = "mc",
+    state: Annotated[str | None, typer.Option(help="Directory that keeps the settings across restarts.")] = None,
+    wire_timing: Annotated[bool, typer.Option("--wire-timing", help="Pace bytes as a real wire would.")] = False,
+    drop_rate: Annotated[float, typer.Option(help="Probability a byte on the wire is lost.")] = 0.0,
+    flip_rate: Annotated[float, typer.Option(help="Probability a byte on the wire gets a bit flipped.")] = 0.0,
+    noise_rate: Annotated[float, typer.Option(help="Probability of a noise burst before a byte the host gets.")] = 0.0,
+    delay_ms: Annotated[float, typer.Option(help="Delay answers by this many ms (see --delay-rate).")] = 0.0,
+    delay_rate: Annotated[float, typer.Option(help="Probability an answer is delayed by --delay-ms.")] = 1.0,
+    miss_rate: Annotated[float, typer.Option(help="Probability an answer never comes.")] = 0.0,
+    echo: Annotated[bool, typer.Option("--echo", help="The adapter echoes the host's own bytes.")] = False,
+    seed: Annotated[int, typer.Option(help="Seed of the fault generator (same seed, same faults).")] = 0,
+    verbose: Annotated[bool, typer.Option("-v", "--verbose", help="Log every frame received and sent.")] = False,
+) -> None:
+    """Simulated MC / BLMC-H controllers on a simulated RS485 bus, on a pseudo-terminal and/or TCP."""
+    logging.basicConfig(
+        level=logging.DEBUG if verbose else logging.WARNING,
+        format="%(asctime)s.%(msecs)03d %(message)s",
+        datefmt="%H:%M:%S",
+        stream=sys.stderr,
+    )
+    try:
+        bus = build_bus(ids, baud, motor or [], product, state, wire_timing, seed, _faults(locals()))
+    except (OptionError, StateError, ValueError) as exc:
+        typer.echo(f"nurimc sim: {exc}", err=True)
+        raise typer.Exit(2) from None
+    serve(bus, link, tcp, host, baud)
+
+
+def _faults(options: dict[str, Any]) -> FaultConfig:
+    names = ("drop_rate", "flip_rate", "noise_rate", "delay_ms", "delay_rate", "miss_rate", "echo")
+    return FaultConfig(**{n: options[n] for n in names})
+
+
+def build_bus(
+    ids: str | None,
+    baud: int,
+    motors: list[str],
+    product: str,
+    state: str | None,
+    wire_timing: bool,
+    seed: int,
+    faults: FaultConfig,
+) -> SimBus:
+    if product not in PRODUCT_NAMES:
+        raise OptionError(f"--product {product!r}: use one of {', '.join(PRODUCT_NAMES)}")
+    check_baud(baud)
+    id_list = parse_ids(ids if ids is not None else ("" if motors else "1"))
+    motor_list = [parse_motor(text) for text in motors]
+    bus = SimBus(wire_timing=wire_timing, faults=faults, state_dir=state, seed=seed)
+    for i in id_list:
+        bus.add_controller(i, baud, product)
+    for i, rate in motor_list:
+        bus.add_controller(i, rate, product)
+    if not bus.controllers:
+        raise OptionError("no controllers: give --ids or --motor")
+    return bus
+
+
+def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int) -> None:
+    """Serve until SIGINT or SIGTERM; print what is served and `ready: ...` lines (flushed)."""
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    servers: list[Any] = []
+    ready: list[str] = []
+    try:
+        if link is not None or tcp is None:
+            endpoint = bus.serve_pty(link=link)
+            servers.append(endpoint)
+            ready.append(link or endpoint.path)
+            print(f"pseudo-terminal {endpoint.path}" + (f" (link {link})" if link else ""))
+        if tcp is not None:
+            server = bus.serve_tcp(port=tcp, host=host, baud=baud)
+            servers.append(server)
+            address = f"{server.address[0]}:{server.address[1]}"
+            ready.append(address)
+            print(f"tcp {address} (socket://{address}, clients talk at {baud} bps)")
+    except OSError as exc:
+        for s in servers:
+            s.stop()
+        typer.echo(f"nurimc sim: cannot serve: {exc}", err=True)
+        raise typer.Exit(1) from None
+    timing = "wire timing on" if bus.wire_timing else "no wire timing"
+    print(f"{len(bus.controllers)} controller(s), {timing}:")
+    for line in describe(bus):
+        print(f"  {line}")
+    for where in ready:
+        print(f"ready: {where}")
+    sys.stdout.flush()
+    while not stop.wait(0.5):
+        pass
+    for s in servers:
+        s.stop()
+    bus.close()
+    print("stopped")
+    sys.stdout.flush()
+
+
+def main() -> None:
+    app = typer.Typer(add_completion=False, pretty_exceptions_enable=False)
+    app.command()(sim)
+    app()

@@ -1,0 +1,303 @@
+"""One simulated controller: settings, servo and the protocol (what it obeys and answers).
+
+Sign convention: CCW is positive. A command's direction byte gives the sign of its position
+(absolute mode: CCW 90° is +90°, CW 90° is -90°; relative mode: the sign of the step) or
+speed. Feedback reports the magnitude and that sign the same way. Control direction CW
+mirrors the controller's idea of positive, so commands and feedback both flip.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from ..protocol import BROADCAST_ID, PRODUCTS, Message, StreamParser
+from ..protocol import messages as m
+from ..protocol.errors import EncodeError
+from ..protocol.message import check_value
+from . import servo as sv
+from .motor import ACCEL_PER_AMP
+from .servo import Mode, Servo
+from .settings import Settings, check_product
+
+log = logging.getLogger("nurimc.sim")
+
+EEPROM_TIME = 0.05  # s a settings write keeps the controller busy (field notes: 50-300 ms)
+FIRMWARE_VERSION = 1
+POSITION_WRAP = 65536  # the position register wraps at 655.36 deg (0.01 deg units)
+FIELD_MAX = 0xFFFD  # 16-bit fields stop at FFFD
+
+# Commands that write EEPROM (and so make the controller busy). Motion and position reset do not.
+SETTINGS_COMMANDS = (
+    m.SetPositionGains,
+    m.SetSpeedGains,
+    m.SetId,
+    m.SetBaud,
+    m.SetResponseTime,
+    m.SetRatedSpeed,
+    m.SetResolution,
+    m.SetRatio,
+    m.SetControl,
+    m.SetPositionMode,
+    m.SetDirection,
+    m.FactoryReset,
+)
+
+
+@dataclass
+class Reply:
+    """An answer frame and when (bus time) the controller starts sending it."""
+
+    start: float
+    frame: bytes
+    baud: int
+    controller: SimController
+
+
+def counts_per_motor_turn(product: str, resolution: int) -> int:
+    """Encoder edges (MC: pulses x 4, quadrature) or hall steps (BLMC-H: poles x 3) per motor turn."""
+    return resolution * 4 if product == "mc" else resolution * 3
+
+
+def _signed(direction: int, magnitude: float) -> float:
+    return -magnitude if direction else magnitude
+
+
+def _magnitude_and_direction(value: float, scale: float, wrap: int | None) -> tuple[int, int]:
+    units = round(abs(value) / scale)
+    if wrap is not None:
+        units %= wrap
+    return (1 if value < 0 and units else 0), min(units, FIELD_MAX)
+
+
+def _fields_valid(message: Message) -> bool:
+    """A frame can carry values the document forbids (speed 0, baud index 18); a controller ignores it."""
+    spec = message.SPEC
+    try:
+        for f in spec.fields:
+            check_value(spec, f, getattr(message, f.name))
+    except EncodeError:
+        return False
+    return True
+
+
+class SimController:
+    """A controller on the bus. `receive` takes the bytes it hears; `replies` are what it sends."""
+
+    def __init__(
+        self,
+        settings: Settings,
+        product: str,
+        slot: int,
+        on_settings_changed: Callable[[], None] | None = None,
+        eeprom_time: float = EEPROM_TIME,
+    ) -> None:
+        self.product = check_product(product)
+        self.settings = settings
+        self.slot = slot
+        self.eeprom_time = eeprom_time
+        self.busy_until = -1.0
+        self.servo = Servo()
+        self.parser = StreamParser()
+        self.clock_origin: float | None = None  # bus time of servo time 0
+        self._on_settings_changed = on_settings_changed
+        self.frames_received = 0
+        self.frames_ignored_busy = 0
+        self.apply_settings()
+        if settings.control:
+            self.servo.release()
+
+    # --- identity ---------------------------------------------------------------------------
+    @property
+    def id(self) -> int:
+        return self.settings.id
+
+    @property
+    def baud(self) -> int:
+        return self.settings.baud
+
+    def __repr__(self) -> str:
+        return f"SimController(id={self.id}, baud={self.baud}, product={self.product!r})"
+
+    # --- model ------------------------------------------------------------------------------
+    @property
+    def counts_per_output_turn(self) -> float:
+        return counts_per_motor_turn(self.product, self.settings.resolution) * self.settings.ratio / 10
+
+    def apply_settings(self) -> None:
+        """Push the settings into the servo's gains and limits."""
+        s, servo = self.settings, self.servo
+        gear = s.ratio / 10
+        servo.limits.max_speed = s.rated_speed * 6.0 / gear
+        servo.limits.accel_per_amp = ACCEL_PER_AMP / gear
+        servo.limits.quantum = 360.0 / self.counts_per_output_turn
+        product_max = PRODUCTS[self.product].max_rated_current
+        pg, sg = servo.position_gains, servo.speed_gains
+        pg.kp, pg.ki, pg.kd = (
+            s.position_kp * sv.POSITION_KP,
+            s.position_ki * sv.POSITION_KI,
+            s.position_kd * sv.POSITION_KD,
+        )
+        pg.current_limit = min(s.position_rated_current, product_max) / 10
+        sg.kp, sg.ki, sg.kd = s.speed_kp * sv.SPEED_KP, s.speed_ki * sv.SPEED_KI, s.speed_kd * sv.SPEED_KD
+        sg.current_limit = min(s.speed_rated_current, product_max) / 10
+        servo.static = False
+
+    def advance_to(self, now: float) -> None:
+        """Step the physics up to bus time `now`."""
+        if self.clock_origin is None:
+            self.clock_origin = now - self.servo.time
+        self.servo.advance(now - self.clock_origin - self.servo.time)
+
+    def _sense(self) -> float:
+        return -1.0 if self.settings.direction else 1.0
+
+    def logical_angle(self) -> float:
+        """The position the controller reports, in degrees (quantised, in its own sense)."""
+        return self.servo.measured_angle() * self._sense()
+
+    def logical_speed(self) -> float:
+        """deg/s in the controller's sense."""
+        return self.servo.motor.speed * self._sense()
+
+    def reported_current(self) -> int:
+        """Feedback current in 100 mA: the magnitude of the applied current, clamped to the rating."""
+        return min(round(abs(self.servo.motor.current) * 10), 254)
+
+    # --- protocol ---------------------------------------------------------------------------
+    def receive(self, data: bytes, now: float) -> list[Reply]:
+        """Bytes heard at this controller's own rate (all arriving at bus time `now`)."""
+        replies: list[Reply] = []
+        for message in self.parser.feed(data):
+            if message.id != self.id and message.id != BROADCAST_ID:
+                continue
+            self.frames_received += 1
+            if not _fields_valid(message):
+                log.debug("id %d ignores %s: a field is outside the document's range", self.id, message)
+                continue
+            if now < self.busy_until:
+                self.frames_ignored_busy += 1
+                log.debug("id %d busy writing EEPROM, ignores %s", self.id, message)
+                continue
+            baud_before = self.baud
+            reply = self.handle(message, now)
+            if reply is not None:
+                replies.append(reply)
+            if self.baud != baud_before:
+                self.parser.clear()  # what follows arrives at the old rate: garbage to us now
+                break
+        return replies
+
+    def handle(self, message: Message, now: float) -> Reply | None:
+        """Obey a command or answer a request addressed to us (or broadcast)."""
+        self.advance_to(now)
+        if isinstance(message, SETTINGS_COMMANDS):
+            self._write_setting(message)
+            self.busy_until = now + self.eeprom_time
+            if self._on_settings_changed is not None:
+                self._on_settings_changed()
+            return None
+        answer = self._answer(message)
+        if answer is None:
+            self._move(message)
+            return None
+        start = now + self.settings.response_time * 100e-6
+        return Reply(start, answer.encode(), self.baud, self)
+
+    def _write_setting(self, msg: Message) -> None:
+        s = self.settings
+        if isinstance(msg, m.SetPositionGains):
+            s.position_kp, s.position_ki, s.position_kd = msg.kp, msg.ki, msg.kd
+            s.position_rated_current = msg.rated_current
+        elif isinstance(msg, m.SetSpeedGains):
+            s.speed_kp, s.speed_ki, s.speed_kd = msg.kp, msg.ki, msg.kd
+            s.speed_rated_current = msg.rated_current
+        elif isinstance(msg, m.SetId):
+            s.id = msg.new_id
+        elif isinstance(msg, m.SetBaud):
+            s.baud_index = msg.baud_index
+        elif isinstance(msg, m.SetResponseTime):
+            s.response_time = msg.response_time
+        elif isinstance(msg, m.SetRatedSpeed):
+            s.rated_speed = msg.rated_speed
+        elif isinstance(msg, m.SetResolution):
+            s.resolution = msg.resolution
+        elif isinstance(msg, m.SetRatio):
+            s.ratio = msg.ratio
+        elif isinstance(msg, m.SetControl):
+            s.control = msg.control
+            if msg.control:
+                self.servo.release()
+            else:
+                self.servo.hold()
+        elif isinstance(msg, m.SetPositionMode):
+            s.position_mode = msg.position_mode
+        elif isinstance(msg, m.SetDirection):
+            if msg.direction != s.direction:
+                s.direction = msg.direction
+                # the same physical place, now seen mirrored: keep holding it
+                if self.servo.mode is Mode.POSITION:
+                    self.servo.hold()
+        elif isinstance(msg, m.FactoryReset):
+            fresh = Settings.factory(self.product)
+            for name, value in fresh.to_dict().items():
+                setattr(s, name, value)
+            self.servo.hold()
+        self.apply_settings()
+
+    def _move(self, msg: Message) -> None:
+        servo, sense = self.servo, self._sense()
+        if isinstance(msg, m.ResetPosition):
+            servo.zero()
+            return
+        if self.settings.control:  # control off: motion commands are ignored until control on
+            return
+        if isinstance(msg, (m.PositionSpeed, m.AccelPosition)):
+            amount = _signed(msg.direction, msg.position / 100)
+            if self.settings.position_mode:  # relative: a step from where the last move was going
+                base = servo.target if servo.mode is Mode.POSITION else servo.measured_angle()
+                target = base + amount * sense
+            else:
+                target = amount * sense
+            if isinstance(msg, m.PositionSpeed):
+                servo.move_at_speed(target, msg.speed / 10 * 6)
+            else:
+                servo.move_in_time(target, msg.arrival_time / 10)
+        elif isinstance(msg, m.AccelSpeed):
+            servo.ramp_speed(_signed(msg.direction, msg.speed / 10 * 6) * sense, msg.arrival_time / 10)
+
+    def _answer(self, msg: Message) -> Message | None:
+        s, i = self.settings, self.id
+        if isinstance(msg, m.RequestPing):
+            return m.Ping(i)
+        if isinstance(msg, m.RequestPosition):
+            d, pos = _magnitude_and_direction(self.logical_angle(), 0.01, POSITION_WRAP)
+            _, speed = _magnitude_and_direction(self.logical_speed(), 0.6, None)
+            return m.PositionFeedback(i, d, pos, speed, self.reported_current())
+        if isinstance(msg, m.RequestSpeed):
+            d, speed = _magnitude_and_direction(self.logical_speed(), 0.6, None)
+            # 0.1 deg as printed (erratum 6): the same wrapped angle in tenths
+            _, pos = _magnitude_and_direction(self.logical_angle(), 0.01, POSITION_WRAP)
+            return m.SpeedFeedback(i, d, speed, pos // 10, self.reported_current())
+        if isinstance(msg, m.RequestPositionGains):
+            return m.PositionGains(i, s.position_kp, s.position_ki, s.position_kd, s.position_rated_current)
+        if isinstance(msg, m.RequestSpeedGains):
+            return m.SpeedGains(i, s.speed_kp, s.speed_ki, s.speed_kd, s.speed_rated_current)
+        if isinstance(msg, m.RequestResponseTime):
+            return m.ResponseTime(i, s.response_time)
+        if isinstance(msg, m.RequestRatedSpeed):
+            return m.RatedSpeed(i, s.rated_speed)
+        if isinstance(msg, m.RequestResolution):
+            return m.Resolution(i, s.resolution)
+        if isinstance(msg, m.RequestRatio):
+            return m.Ratio(i, s.ratio)
+        if isinstance(msg, m.RequestControl):
+            return m.Control(i, s.control)
+        if isinstance(msg, m.RequestPositionMode):
+            return m.PositionMode(i, s.position_mode)
+        if isinstance(msg, m.RequestDirection):
+            return m.Direction(i, s.direction)
+        if isinstance(msg, m.RequestFirmware):
+            return m.Firmware(i, FIRMWARE_VERSION)
+        return None

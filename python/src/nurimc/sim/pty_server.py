@@ -1,0 +1,133 @@
+"""Serve the bus on a pseudo-terminal that any serial program opens like a USB adapter."""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import logging
+import os
+import select
+import struct
+import termios
+import threading
+import tty
+from pathlib import Path
+
+from .bus import HostLink, SimBus
+
+log = logging.getLogger("nurimc.sim")
+
+TCGETS2 = 0x802C542A  # struct termios2: c_ispeed, c_ospeed are uint32 at offsets 36 and 40
+TERMIOS2_SIZE = 44
+
+
+def host_baud(fd: int, fallback: int) -> int:
+    """The baud rate the host set on the terminal (any rate, standard or not)."""
+    try:
+        raw = fcntl.ioctl(fd, TCGETS2, bytes(TERMIOS2_SIZE))
+        _, ospeed = struct.unpack_from("=II", raw, 36)
+        return int(ospeed) or fallback
+    except OSError:
+        return fallback
+
+
+class PtyEndpoint(str):
+    """The slave device path (a str, so it can be passed to serial.Serial) with .stop()."""
+
+    server: PtyServer
+
+    @property
+    def path(self) -> str:
+        return str(self)
+
+    @property
+    def link(self) -> str | None:
+        return self.server.link_path
+
+    def stop(self) -> None:
+        self.server.stop()
+
+
+class PtyServer:
+    def __init__(self, bus: SimBus, link_path: str | None = None) -> None:
+        self.bus = bus
+        self.link_path = link_path
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)  # no echo, no line editing until the host configures it
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self.slave)
+        default_baud = bus.controllers[0].baud if bus.controllers else 9600
+        attrs = termios.tcgetattr(self.slave)
+        speed = getattr(termios, f"B{default_baud}", termios.B9600)
+        attrs[4] = attrs[5] = speed
+        termios.tcsetattr(self.slave, termios.TCSANOW, attrs)
+        self.host: HostLink = bus.open_link(host_baud(self.master, default_baud))
+        self._wake_r, self._wake_w = os.pipe()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, name="nurimc-sim-pty", daemon=True)
+
+    def start(self) -> PtyEndpoint:
+        if self.link_path:
+            link = Path(self.link_path)
+            if link.is_symlink() or link.exists():
+                if not link.is_symlink():
+                    self._close_fds()
+                    raise FileExistsError(f"{link} exists and is not a symlink; choose another --link path")
+                link.unlink()
+            link.symlink_to(self.path)
+        self._thread.start()
+        endpoint = PtyEndpoint(self.path)
+        endpoint.server = self
+        return endpoint
+
+    def _serve(self) -> None:
+        pending = bytearray()
+        while not self._stop.is_set():
+            timeout = self.bus.wait_hint()
+            want_write = [self.master] if pending else []
+            try:
+                readable, _, _ = select.select([self.master, self._wake_r], want_write, [], timeout)
+            except (OSError, ValueError):
+                break
+            if self.master in readable:
+                try:
+                    data = os.read(self.master, 4096)
+                except OSError as exc:
+                    if exc.errno not in (errno.EAGAIN, errno.EIO):
+                        log.warning("pty read failed: %s", exc)
+                    data = b""
+                if data:
+                    self.host.baud = host_baud(self.master, self.host.baud)
+                    self.host.write(data)
+            pending += self.host.take()
+            if pending:
+                try:
+                    written = os.write(self.master, pending)
+                    del pending[:written]
+                except BlockingIOError:
+                    pass  # the host is not reading; keep the bytes for later
+                except OSError as exc:
+                    log.warning("pty write failed: %s", exc)
+                    pending.clear()
+                if len(pending) > 65536:  # a host that never reads loses the oldest bytes
+                    del pending[:-65536]
+
+    def stop(self) -> None:
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        os.write(self._wake_w, b"x")
+        if self._thread.is_alive():
+            self._thread.join(timeout=2)
+        self.host.close()
+        if self.link_path:
+            link = Path(self.link_path)
+            if link.is_symlink() and os.readlink(link) == self.path:
+                link.unlink()
+        self._close_fds()
+
+    def _close_fds(self) -> None:
+        for fd in (self.master, self.slave, self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)

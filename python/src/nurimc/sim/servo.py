@@ -1,0 +1,218 @@
+"""The controller's servo: motion references (the three motion commands) and a cascaded PID.
+
+Position loop (gains of section 4) -> speed reference; speed loop (gains of section 5) ->
+current, clamped to the rated current -> motor. The u8 gains are scaled to physical gains
+(below) so that the product defaults give a brisk, well-damped response and changing a
+gain visibly changes the step response.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+from .motor import ACCEL_PER_AMP, MotorState, step_motor
+
+DT = 0.001  # s, the fixed physics step
+
+# u8 gain -> physical gain
+POSITION_KP = 0.4  # (deg/s) per deg
+POSITION_KI = 0.5  # (deg/s) per deg*s
+POSITION_KD = 0.002  # (deg/s) per deg/s
+SPEED_KP = 0.0003  # A per deg/s
+SPEED_KI = 0.003  # A per deg
+SPEED_KD = 0.000002  # A per deg/s^2
+
+
+class Mode(Enum):
+    OFF = "off"  # control off: no current, the motor coasts
+    POSITION = "position"  # follow a position reference
+    SPEED = "speed"  # follow a speed reference
+
+
+@dataclass
+class Gains:
+    kp: float
+    ki: float
+    kd: float
+    current_limit: float  # A
+
+
+@dataclass
+class Limits:
+    max_speed: float  # deg/s at the output shaft
+    accel_per_amp: float  # deg/s^2 per A at the output shaft
+    quantum: float  # deg: one encoder / hall step at the output shaft
+
+
+class Servo:
+    """Motion state of one controller; `advance(dt_total)` steps it at the fixed DT."""
+
+    def __init__(self) -> None:
+        self.motor = MotorState()
+        self.mode = Mode.POSITION
+        self.position_gains = Gains(20.0, 0.0, 0.02, 5.0)
+        self.speed_gains = Gains(0.009, 0.03, 0.0, 5.0)
+        self.limits = Limits(18_000.0, ACCEL_PER_AMP, 22.5)
+        # position reference: a move at constant speed or a smooth profile
+        self.target = 0.0
+        self.ref = 0.0
+        self.ref_speed = 0.0  # the constant speed of a 01 move (deg/s, magnitude)
+        self.profile: tuple[float, float, float, float] | None = None  # start, end, t0, duration
+        # speed reference: a linear ramp
+        self.speed_ref = 0.0
+        self.ramp: tuple[float, float, float, float] | None = None  # from, to, t0, duration
+        self.time = 0.0  # s, the servo's own time since it was made
+        self._pos_integral = 0.0
+        self._speed_integral = 0.0
+        self._last_speed_error = 0.0
+        self.static = False  # nothing will change until a new command arrives
+
+    # --- measurements as the controller sees them -----------------------------------------
+    def measured_angle(self) -> float:
+        q = self.limits.quantum
+        return round(self.motor.angle / q) * q
+
+    # --- commands --------------------------------------------------------------------------
+    def hold(self) -> None:
+        """Stay where the motor is (control on, or after a position reset)."""
+        here = self.measured_angle()
+        self.mode = Mode.POSITION
+        self.target = self.ref = here
+        self.profile = None
+        self.ref_speed = 0.0
+        self._pos_integral = 0.0
+        self._speed_integral = 0.0
+        self.static = False
+
+    def release(self) -> None:
+        self.mode = Mode.OFF
+        self.profile = self.ramp = None
+        self.static = False
+
+    def move_at_speed(self, target: float, speed: float) -> None:
+        """Section 1: go to `target` at `speed` (deg/s, clamped to the rated speed)."""
+        if self.mode is not Mode.POSITION:
+            self.ref = self.motor.angle
+            self._pos_integral = 0.0
+        self.mode = Mode.POSITION
+        self.profile = None
+        self.target = target
+        self.ref_speed = min(abs(speed), self.limits.max_speed)
+        self.static = False
+
+    def move_in_time(self, target: float, duration: float) -> None:
+        """Section 2: reach `target` in `duration` s along a smooth (cubic) profile."""
+        start = self.ref if self.mode is Mode.POSITION else self.motor.angle
+        self.mode = Mode.POSITION
+        self.target = target
+        self.profile = (start, target, self.time, max(duration, DT))
+        self.static = False
+
+    def ramp_speed(self, speed: float, duration: float) -> None:
+        """Section 3: ramp the speed to `speed` (deg/s, signed) in `duration` s."""
+        speed = max(-self.limits.max_speed, min(self.limits.max_speed, speed))
+        start = self.speed_ref if self.mode is Mode.SPEED else self.motor.speed
+        if self.mode is not Mode.SPEED:
+            self._speed_integral = 0.0
+        self.mode = Mode.SPEED
+        self.profile = None
+        self.ramp = (start, speed, self.time, max(duration, DT))
+        self.static = False
+
+    def zero(self) -> None:
+        """Section 15: the current position becomes zero (the motor keeps what it was doing)."""
+        offset = self.measured_angle()
+        self.motor.angle -= offset
+        self.target -= offset
+        self.ref -= offset
+        if self.profile is not None:
+            a, b, t0, d = self.profile
+            self.profile = (a - offset, b - offset, t0, d)
+
+    # --- stepping --------------------------------------------------------------------------
+    def advance(self, seconds: float) -> None:
+        """Advance by `seconds` of simulated time (whole steps; a static servo jumps)."""
+        steps = int(seconds / DT + 1e-9)
+        if steps <= 0:
+            return
+        if self.static:
+            self.time += steps * DT
+            return
+        for _ in range(steps):
+            self._step()
+            if self.static:
+                self.time += (steps - 1 - _) * DT
+                return
+
+    def _step(self) -> None:
+        m, lim = self.motor, self.limits
+        self.time += DT
+        if self.mode is Mode.OFF:
+            step_motor(m, 0.0, lim.accel_per_amp, DT)
+            self.static = m.speed == 0.0
+            return
+        if self.mode is Mode.POSITION:
+            feedforward = self._position_reference()
+            g = self.position_gains
+            error = self.ref - self.measured_angle()
+            speed_ref = feedforward + g.kp * error + g.ki * self._pos_integral + g.kd * (feedforward - m.speed)
+            if abs(speed_ref) < lim.max_speed:
+                self._pos_integral += error * DT  # integrate only while not saturated
+            speed_ref = max(-lim.max_speed, min(lim.max_speed, speed_ref))
+            limit = g.current_limit
+        else:
+            speed_ref = self._speed_reference()
+            error = 0.0
+            limit = self.speed_gains.current_limit
+        s = self.speed_gains
+        speed_error = speed_ref - m.speed
+        derivative = (speed_error - self._last_speed_error) / DT
+        self._last_speed_error = speed_error
+        current = s.kp * speed_error + s.ki * self._speed_integral + s.kd * derivative
+        if abs(current) < limit:
+            self._speed_integral += speed_error * DT
+        current = max(-limit, min(limit, current))
+        step_motor(m, current, lim.accel_per_amp, DT)
+        self.static = (
+            m.speed == 0.0
+            and speed_ref == 0.0
+            and error == 0.0
+            and self.profile is None
+            and self.ramp is None
+            and (self.mode is Mode.SPEED or self.ref == self.target)
+        )
+
+    def _position_reference(self) -> float:
+        """Move the position reference one step; return its speed (the feedforward)."""
+        if self.profile is not None:
+            start, end, t0, duration = self.profile
+            tau = (self.time - t0) / duration
+            if tau >= 1.0:
+                self.profile = None
+                self.ref = end
+                return 0.0
+            tau = max(tau, 0.0)
+            self.ref = start + (end - start) * (3 * tau * tau - 2 * tau * tau * tau)
+            return (end - start) * (6 * tau - 6 * tau * tau) / duration
+        gap = self.target - self.ref
+        if gap == 0.0:
+            return 0.0
+        stride = self.ref_speed * DT
+        if abs(gap) <= stride:
+            self.ref = self.target
+            return 0.0
+        self.ref += math.copysign(stride, gap)
+        return math.copysign(self.ref_speed, gap)
+
+    def _speed_reference(self) -> float:
+        if self.ramp is not None:
+            start, end, t0, duration = self.ramp
+            tau = (self.time - t0) / duration
+            if tau >= 1.0:
+                self.ramp = None
+                self.speed_ref = end
+            else:
+                self.speed_ref = start + (end - start) * max(tau, 0.0)
+        return self.speed_ref

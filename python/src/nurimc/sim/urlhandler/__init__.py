@@ -1,0 +1,1 @@
+"""pyserial URL handlers: `sim://` (importing nurimc.sim registers this package)."""

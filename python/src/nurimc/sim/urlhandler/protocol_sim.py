@@ -1,0 +1,73 @@
+"""`serial.serial_for_url("sim://?ids=0,1&baud=9600&product=mc&wire_timing=0&motor=3@57600")`.
+
+Each URL makes a new bus (reach it as `port.bus`). Parameters: ids (list or count), baud,
+product, motor (repeatable ID@RATE), wire_timing, state (directory), seed, and the fault
+options drop_rate, flip_rate, noise_rate, delay_ms, miss_rate, echo.
+"""
+
+from __future__ import annotations
+
+import urllib.parse
+from typing import Any
+
+import serial
+
+from ..bus import SimBus
+from ..faults import FaultConfig
+from ..options import OptionError, check_baud, parse_bool, parse_ids, parse_motor
+from ..port import SimSerial
+
+_FLOAT_FAULTS = ("drop_rate", "flip_rate", "noise_rate", "delay_ms", "delay_rate", "miss_rate")
+_KNOWN = {"ids", "baud", "product", "motor", "wire_timing", "state", "seed", "echo", *_FLOAT_FAULTS}
+
+
+def bus_from_url(url: str) -> SimBus:
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme.lower() != "sim":
+        raise OptionError(f"expected a sim:// URL, got {url!r}")
+    query = urllib.parse.parse_qs(parts.query, keep_blank_values=True)
+    unknown = set(query) - _KNOWN
+    if unknown:
+        raise OptionError(
+            f"sim:// URL: unknown parameter(s) {', '.join(sorted(unknown))}; known: {', '.join(sorted(_KNOWN))}"
+        )
+
+    def one(name: str, default: str) -> str:
+        return query.get(name, [default])[-1]
+
+    try:
+        faults: dict[str, Any] = {k: float(one(k, "0" if k != "delay_rate" else "1")) for k in _FLOAT_FAULTS}
+        seed = int(one("seed", "0"))
+    except ValueError as exc:
+        raise OptionError(f"sim:// URL: {exc}") from None
+    faults["echo"] = parse_bool(one("echo", "0"), "echo")
+    baud = check_baud(int(one("baud", "9600")))
+    product = one("product", "mc")
+    ids = parse_ids(one("ids", "" if "motor" in query else "1"))
+    bus = SimBus(
+        wire_timing=parse_bool(one("wire_timing", "0"), "wire_timing"),
+        faults=FaultConfig(**faults),
+        state_dir=query["state"][-1] if "state" in query else None,
+        seed=seed,
+    )
+    for i in ids:
+        bus.add_controller(i, baud, product)
+    for spec in query.get("motor", []):
+        i, rate = parse_motor(spec)
+        bus.add_controller(i, rate, product)
+    return bus
+
+
+class Serial(SimSerial):
+    """The class pyserial's serial_for_url instantiates for sim:// URLs."""
+
+    def open(self) -> None:
+        if self.port is None:
+            raise serial.SerialException("port must be configured before it can be used")
+        if self.bus is None:
+            try:
+                self.bus = bus_from_url(str(self.port))
+            except ValueError as exc:
+                raise serial.SerialException(str(exc)) from exc
+            self._own_bus = True
+        super().open()
