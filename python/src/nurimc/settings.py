@@ -46,8 +46,7 @@ class Setting:
         try:
             number = units.parse_quantity(value, spec.unit) if isinstance(value, str) else float(value)  # type: ignore[arg-type]
         except (TypeError, ValueError):
-            choices = f" or one of {', '.join(names)}" if names else ""
-            raise FieldRangeError(self.name, "value", value, f"a number in {self.unit or 'units'}{choices}") from None
+            raise FieldRangeError(self.name, "value", value, self.describe_range()) from None
         raw = units.to_wire(number, spec.scale) if spec.unit else round(number)
         if not spec.min <= raw <= spec.max:
             raise FieldRangeError(self.name, "value", value, self.describe_range())
