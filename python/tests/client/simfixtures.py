@@ -7,15 +7,21 @@ from nurimc.sim import FaultConfig, SimBus
 from nurimc.transport import SerialTransport
 
 
-def sim_bus(ids: dict[int, int] | list[int], baud: int = 9600, faults: FaultConfig | None = None,
-            seed: int = 0, wire_timing: bool = False, retries: int = 2,
-            resolution: int | None = None) -> tuple[SimBus, Bus]:
+def sim_bus(
+    ids: dict[int, int] | list[int],
+    baud: int = 9600,
+    faults: FaultConfig | None = None,
+    seed: int = 0,
+    wire_timing: bool = False,
+    retries: int = 2,
+    resolution: int | None = None,
+) -> tuple[SimBus, Bus]:
     """A simulated bus with controllers (ID list at `baud`, or {id: rate}) and a library Bus on it.
 
     `resolution` (encoder pulses) is written through the library first: the default of 4 pulses
     quantises the reported position to 22.5 deg, too coarse for motion tests."""
     sim = SimBus(faults=faults, seed=seed, wire_timing=wire_timing, eeprom_time=0.02)
-    for device_id, rate in (ids.items() if isinstance(ids, dict) else ((i, baud) for i in ids)):
+    for device_id, rate in ids.items() if isinstance(ids, dict) else ((i, baud) for i in ids):
         sim.add_controller(id=device_id, baud=rate)
     port = sim.open_serial(baudrate=baud, timeout=0.1)
     bus = Bus(SerialTransport(port, "sim://", latency=0.002), retries=retries)
