@@ -111,9 +111,7 @@ def _values(name: str) -> st.SearchStrategy[dict[str, int]]:
 
 
 @given(
-    st.sampled_from(sorted(SPECS)).flatmap(
-        lambda n: st.tuples(st.just(n), _values(n), st.integers(0, SPECS[n].max_id))
-    )
+    st.sampled_from(sorted(SPECS)).flatmap(lambda n: st.tuples(st.just(n), _values(n), st.integers(0, SPECS[n].max_id)))
 )
 def test_round_trip_every_message_over_its_range(case: tuple[str, dict[str, int], int]) -> None:
     name, fields, frame_id = case

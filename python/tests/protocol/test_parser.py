@@ -48,9 +48,7 @@ NOISE = st.binary(max_size=12).map(lambda b: b.replace(b"\xff", b"\x00"))
     NOISE,
     st.lists(st.integers(0, 10_000), max_size=6),
 )
-def test_frames_recovered_between_noise(
-    parts: list[tuple[bytes, Message]], tail: bytes, cuts: list[int]
-) -> None:
+def test_frames_recovered_between_noise(parts: list[tuple[bytes, Message]], tail: bytes, cuts: list[int]) -> None:
     stream = b"".join(noise + m.encode() for noise, m in parts) + tail
     frames, parser = _parse_in_chunks(stream, cuts)
     assert frames == [m for _, m in parts]
@@ -85,9 +83,7 @@ def test_incomplete_frame_waits_then_completes() -> None:
     parser = StreamParser()
     assert parser.feed(raw[:7]) == []
     assert parser.pending == 7
-    assert parser.feed(raw[7:]) == [
-        make("position_feedback", 2, direction=1, position=100, speed=5, current=1)
-    ]
+    assert parser.feed(raw[7:]) == [make("position_feedback", 2, direction=1, position=100, speed=5, current=1)]
 
 
 def test_diagnostics_are_counted() -> None:

@@ -61,7 +61,5 @@ def test_conformance_program_speaks_json_lines() -> None:
 
 def test_vectors_and_generated_code_are_fresh() -> None:
     for tool in ("make_vectors.py", "generate.py"):
-        proc = subprocess.run(
-            [sys.executable, str(ROOT / "tools" / tool), "--check"], capture_output=True, text=True
-        )
+        proc = subprocess.run([sys.executable, str(ROOT / "tools" / tool), "--check"], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
