@@ -16,12 +16,22 @@ static uint64_t now_us(void) {
     return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
 }
 
+static void pause_us(uint32_t us) {
+    struct timespec ts;
+    ts.tv_sec = (time_t)(us / 1000000u);
+    ts.tv_nsec = (long)(us % 1000000u) * 1000L;
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
+}
+
 nurimc_status nurimc_bus_open(nurimc_bus *bus, const char *path, uint32_t baud) {
     if (bus == NULL) return NURIMC_E_ARGUMENT;
     memset(bus, 0, sizeof *bus);
     bus->adapter_latency_us = NURIMC_DEFAULT_ADAPTER_LATENCY_US;
     bus->margin_us = NURIMC_DEFAULT_MARGIN_US;
-    bus->response_time_us = NURIMC_DEFAULT_RESPONSE_TIME * 100u;
+    bus->response_time_us = NURIMC_MAX_RESPONSE_TIME_US;
+    bus->retries = 2;
+    bus->retry_pause_us = 5000;
     nurimc_parser_init(&bus->parser);
     return nurimc_port_open(&bus->port, path, baud);
 }
@@ -38,7 +48,7 @@ uint32_t nurimc_bus_answer_timeout_us(const nurimc_bus *bus, nurimc_message_type
     bytes = (uint64_t)spec->size + NURIMC_FRAME_OVERHEAD;
     if (answer != NULL) bytes += (uint64_t)answer->size + NURIMC_FRAME_OVERHEAD;
     wire_us = (bytes * 10u * 1000000u + bus->port.baud - 1u) / bus->port.baud; /* 8N1: 10 bits a byte */
-    total = wire_us + bus->response_time_us + bus->adapter_latency_us + bus->margin_us;
+    total = wire_us + bus->response_time_us + 2u * (uint64_t)bus->adapter_latency_us + bus->margin_us;
     return total > UINT32_MAX ? UINT32_MAX : (uint32_t)total;
 }
 
@@ -70,13 +80,10 @@ nurimc_status nurimc_bus_send(nurimc_bus *bus, const nurimc_message *msg, int *b
     return write_all(bus->port.fd, frame, length);
 }
 
-nurimc_status nurimc_bus_request(nurimc_bus *bus, const nurimc_message *request, nurimc_message *answer) {
-    const nurimc_message_spec *spec = request ? nurimc_spec(request->type) : NULL;
+static nurimc_status attempt(nurimc_bus *bus, const nurimc_message *request, const nurimc_message_spec *spec,
+                             nurimc_message *answer) {
     uint64_t deadline;
     nurimc_status status;
-    if (bus == NULL || answer == NULL || spec == NULL || spec->kind != NURIMC_KIND_REQUEST) {
-        return NURIMC_E_ARGUMENT;
-    }
     nurimc_port_discard_input(&bus->port);
     nurimc_parser_clear(&bus->parser);
     status = nurimc_bus_send(bus, request, NULL);
@@ -107,6 +114,20 @@ nurimc_status nurimc_bus_request(nurimc_bus *bus, const nurimc_message *request,
             if (answer->type == spec->answer && answer->id == request->id) return NURIMC_OK;
             bus->ignored_frames++; /* an echo of our request, or another controller's traffic */
         }
+    }
+}
+
+nurimc_status nurimc_bus_request(nurimc_bus *bus, const nurimc_message *request, nurimc_message *answer) {
+    const nurimc_message_spec *spec = request ? nurimc_spec(request->type) : NULL;
+    nurimc_status status;
+    unsigned tries;
+    if (bus == NULL || answer == NULL || spec == NULL || spec->kind != NURIMC_KIND_REQUEST) {
+        return NURIMC_E_ARGUMENT;
+    }
+    for (tries = 0;; tries++) {
+        status = attempt(bus, request, spec, answer);
+        if (status != NURIMC_E_TIMEOUT || tries >= bus->retries) return status;
+        pause_us(bus->retry_pause_us);
     }
 }
 
