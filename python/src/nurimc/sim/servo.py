@@ -157,7 +157,8 @@ class Servo:
             feedforward = self._position_reference()
             g = self.position_gains
             error = self.ref - self.measured_angle()
-            speed_ref = feedforward + g.kp * error + g.ki * self._pos_integral + g.kd * (feedforward - m.speed)
+            # PID on the error alone (no velocity feedforward): the gains shape the response
+            speed_ref = g.kp * error + g.ki * self._pos_integral + g.kd * (feedforward - m.speed)
             if abs(speed_ref) < lim.max_speed:
                 self._pos_integral += error * DT  # integrate only while not saturated
             speed_ref = max(-lim.max_speed, min(lim.max_speed, speed_ref))

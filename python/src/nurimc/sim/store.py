@@ -50,9 +50,10 @@ class StateStore:
         return self._slots[index] if index < len(self._slots) else None
 
     def save(self, records: list[dict[str, Any]]) -> None:
-        """Replace the file atomically: a crash leaves the old or the new state, never half."""
-        self._slots = records
-        text = json.dumps({"version": FORMAT_VERSION, "controllers": records}, indent=1)
+        """Store the first len(records) slots (later stored slots are kept), atomically: a crash
+        leaves the old or the new file, never half of one."""
+        self._slots = records + self._slots[len(records) :]
+        text = json.dumps({"version": FORMAT_VERSION, "controllers": self._slots}, indent=1)
         fd, tmp = tempfile.mkstemp(dir=self.directory, prefix=".bus-", suffix=".tmp")
         try:
             with os.fdopen(fd, "w") as f:

@@ -2,8 +2,8 @@
 
 Every controller transmission occupies [start, start + bytes * 10 / baud) on the wire,
 whether or not wire timing paces delivery. Transmissions whose windows overlap collide:
-RS485 drivers fight and the idle-high line reads as the AND of what they send, so the
-overlapping bytes (aligned by byte slot) are ANDed. Staggered response times avoid this.
+RS485 drivers fight and the idle-high line reads as the AND of what they send; the
+receiver's UART decodes that line (see merge). Staggered response times avoid this.
 """
 
 from __future__ import annotations
@@ -41,18 +41,49 @@ class Transmission:
         return self.start < other.end and other.start < self.end
 
 
+def line_bits(data: bytes | bytearray) -> list[int]:
+    """The line level, bit by bit, of 8N1 characters: start 0, data LSB first, stop 1."""
+    bits: list[int] = []
+    for byte in data:
+        bits.append(0)
+        bits.extend((byte >> i) & 1 for i in range(8))
+        bits.append(1)
+    return bits
+
+
+def uart_decode(bits: list[int]) -> bytearray:
+    """What a UART reads from a line: each falling edge starts a character of 8 data bits."""
+    out = bytearray()
+    i, n = 0, len(bits)
+    while i < n:
+        if bits[i]:
+            i += 1
+            continue
+        value = 0
+        for k in range(8):
+            j = i + 1 + k
+            value |= (bits[j] if j < n else 1) << k
+        out.append(value)
+        i += 10
+    return out
+
+
 def merge(a: Transmission, b: Transmission) -> Transmission:
-    """The bytes a receiver reads when `a` and `b` overlap (neither delivered yet): ANDed per slot."""
+    """What a receiver reads when `a` and `b` overlap (neither delivered yet).
+
+    The line is the AND of both drivers. Two controllers never share a bit clock, so the
+    later one is at least one bit out of step (identical answers sent "at once" still
+    garble); the result is decoded as a UART would.
+    """
     first, second = (a, b) if a.start <= b.start else (b, a)
-    offset = round((second.start - first.start) / first.byte_time)
-    data = bytearray(first.data)
-    for i, byte in enumerate(second.data):
-        j = offset + i
-        if j < len(data):
-            data[j] &= byte
-        else:
-            data.append(byte)
-    return Transmission(first.start, first.baud, data, first.sources + second.sources)
+    bit = first.byte_time / 10
+    shift = max(1, round((second.start - first.start) / bit))
+    ones, twos = line_bits(first.data), line_bits(second.data)
+    line = [1] * max(len(ones), shift + len(twos))
+    line[: len(ones)] = ones
+    for i, level in enumerate(twos):
+        line[shift + i] &= level
+    return Transmission(first.start, first.baud, uart_decode(line), first.sources + second.sources)
 
 
 class Garbler:
