@@ -40,6 +40,11 @@ function startSim(): Promise<ChildProcess> {
 
 const present = existsSync(SIM) && existsSync(PYTHON);
 
+// `make test` sets NURIMC_REQUIRE_SIM=1: there a missing simulator is a failure, not a skip.
+it.runIf(process.env["NURIMC_REQUIRE_SIM"] === "1")("finds the simulator and the project's Python", () => {
+  expect({ simulator: existsSync(SIM), python: existsSync(PYTHON) }).toEqual({ simulator: true, python: true });
+});
+
 describe.skipIf(!present)("against the simulator's pseudo-terminal", () => {
   let sim: ChildProcess;
   let bus: Bus;

@@ -1,0 +1,2 @@
+/** Build the browser bundle (one ESM file) at `outfile`. */
+export function bundle(outfile: string): Promise<void>;
