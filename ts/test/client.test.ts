@@ -156,3 +156,24 @@ describe("bus client", () => {
     expect(port.listeners).toBe(0);
   });
 });
+
+describe("bus client on arbitrary bus bytes", () => {
+  it("always settles with the answer or a BusError, never hangs or throws anything else", async () => {
+    const fc = (await import("fast-check")).default;
+    const answerFrame = encode(make("ping", 6, {}));
+    await fc.assert(
+      fc.asyncProperty(fc.array(fc.uint8Array({ maxLength: 20 }), { maxLength: 4 }), fc.boolean(), async (junk, withAnswer) => {
+        const port = new FakePort(() => (withAnswer ? [...junk, answerFrame] : junk));
+        const bus = new Bus(port, { adapterLatencyMs: withAnswer ? 200 : 5, retries: 0 }); // generous where an answer is due
+        try {
+          const answer = await bus.request(make("request_ping", 6, {}));
+          expect(answer).toEqual(make("ping", 6, {}));
+        } catch (err) {
+          expect(err).toBeInstanceOf(BusError);
+          expect(withAnswer).toBe(false); // a valid answer behind any junk is always found
+        }
+      }),
+      { numRuns: 60 },
+    );
+  });
+});
