@@ -7,7 +7,7 @@
 enum { ID_OFFSET = 2, SIZE_OFFSET = 3, CHECKSUM_OFFSET = 4, MODE_OFFSET = 5, DATA_OFFSET = 6 };
 
 const nurimc_message_spec *nurimc_spec(nurimc_message_type type) {
-    if ((int)type < 0 || (int)type >= (int)NURIMC_MESSAGE_COUNT) return NULL;
+    if ((unsigned)type >= (unsigned)NURIMC_MESSAGE_COUNT) return NULL; /* NONE is -1 or, with short enums, 255 */
     return &nurimc_message_specs[type];
 }
 
