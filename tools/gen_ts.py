@@ -108,7 +108,11 @@ def messages(spec: dict[str, Any]) -> str:
     for kind in ("command", "request", "answer"):
         names = " | ".join(_js(m["name"]) for m in spec["messages"] if m["kind"] == kind)
         lines.append(f"export type {kind.capitalize()}Name = {names};")
-    lines += ["", "/** The answer of each request (answer mode = request mode + 0x30). */", "export interface AnswerOf {"]
+    lines += [
+        "",
+        "/** The answer of each request (answer mode = request mode + 0x30). */",
+        "export interface AnswerOf {",
+    ]
     lines += [f"  {m['name']}: {_js(m['answer'])};" for m in spec["messages"] if m.get("answer")]
     lines += ["}", "", "export const MESSAGE_NAMES: readonly MessageName[] = ["]
     lines += [f"  {_js(m['name'])}," for m in spec["messages"]]
