@@ -1,28 +1,109 @@
-"""`nurimc demo`: the main job."""
+"""`nurimc demo`: the main job on a simulated bus — discover, configure, move, watch — and `bench`."""
 
 from __future__ import annotations
 
-import json
-from importlib import resources
+import subprocess
+import sys
+import time
+from pathlib import Path
 
-from rich.console import Console
+import typer
+from rich.live import Live
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..protocol import decode
+from ..client.sync import Bus
+from ..discovery import Progress as ScanProgress
+from ..discovery import discover
+from ..sim import SimBus
+from ..transport import SerialTransport
 from .app import app
+from .common import out, table
+
+DEMO_MOTORS = {1: 115200, 2: 115200, 3: 57600}  # ID -> rate: the demo does not know them in advance
+TARGETS = {1: 90.0, 2: -180.0, 3: 360.0}
 
 
 @app.command()
-def demo() -> None:
-    """Decode and re-encode every worked example of the protocol document."""
-    console = Console()
-    spec = json.loads(resources.files("nurimc").joinpath("../../../spec/protocol.json").read_text())
-    table = Table(title="MC-RS485 V1.0.1: the document's examples, decoded and re-encoded")
-    for column in ("§", "frame", "decoded", "round trip"):
-        table.add_column(column)
-    for ex in spec["examples"]:
-        raw = bytes.fromhex(ex["hex"])
-        message = decode(raw)
-        ok = message.encode() == raw
-        table.add_row(str(ex["section"]), ex["hex"], f"{message.name} {message.physical()}", "ok" if ok else "FAIL")
-    console.print(table)
+def demo(seconds: float = typer.Option(4.0, help="How long to watch the motors move.")) -> None:
+    """Simulated bus with three motors: discover them, configure them, move them, watch them.
+
+    Example: nurimc demo
+    """
+    sim = SimBus(wire_timing=True)
+    for device_id, rate in DEMO_MOTORS.items():
+        sim.add_controller(id=device_id, baud=rate)
+    bus = Bus(SerialTransport(sim.open_serial(baudrate=9600), "sim://", latency=0.001))
+    out.print("[bold]nurimc demo[/]: a simulated RS485 bus with 3 controllers at rates the host does not know.")
+    start = time.monotonic()
+    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=out, transient=True) as bar:
+        task = bar.add_task("scanning", total=18)
+
+        def show(event: object) -> None:
+            if isinstance(event, ScanProgress):
+                bar.update(task, completed=event.rate_index + 1, description=f"scanning {event.rate:>7} bps")
+
+        found = bus.run(discover(bus.core), on_note=show)
+    found_table = table(
+        f"discovery: {len(found)} controllers in {time.monotonic() - start:.1f} s (the vendor's tool: 20-30 minutes)",
+        "ID",
+        "baud",
+        "firmware",
+    )
+    for f in found:
+        found_table.add_row(str(f.id), str(f.baudrate), str(f.firmware))
+    out.print(found_table)
+
+    motors = []
+    for f in found:
+        bus.baudrate = f.baudrate
+        motor = bus.motor(f.id)
+        motor.set("resolution", 1024)  # a 1024-pulse encoder; written and read back
+        motors.append((f.baudrate, motor))
+        motor.move_to(TARGETS.get(f.id, 45.0), rpm=120)
+        out.print(f"ID {f.id}: resolution set to 1024 (verified), moving to {TARGETS.get(f.id, 45.0)}° at 120 RPM")
+
+    def render() -> Table:
+        rows = table("live state", "ID", "target °", "position °", "speed RPM", "current A")
+        for rate, motor in motors:
+            bus.baudrate = rate
+            s = motor.read_state()
+            rows.add_row(
+                str(motor.id),
+                f"{TARGETS.get(motor.id, 45.0):.1f}",
+                f"{s.position:8.2f}",
+                f"{s.speed:6.1f}",
+                f"{s.current:4.1f}",
+            )
+        return rows
+
+    with Live(render(), console=out, auto_refresh=False) as live:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            time.sleep(0.1)
+            live.update(render(), refresh=True)
+    for rate, motor in motors:
+        bus.baudrate = rate
+        motor.release()
+    out.print(f"released all motors. Bus statistics: {bus.stats.as_dict()}")
+    out.print(
+        "Next: [bold]nurimc sim --link /tmp/nurimc0 --ids 1,2[/] and [bold]nurimc --port /tmp/nurimc0 --id 1 status[/]"
+    )
+    bus.close()
+    sim.close()
+
+
+@app.command()
+def bench(quick: bool = typer.Option(False, help="Short runs, nothing recorded.")) -> None:
+    """Run the benchmarks (from a source checkout) and record their results.
+
+    Example: nurimc bench
+    """
+    root = Path(__file__).resolve().parents[4]
+    scripts = sorted((root / "benchmarks").glob("*.py"))
+    if not scripts:
+        raise typer.BadParameter("the benchmarks live in the source tree (benchmarks/); run from a clone")
+    for script in scripts:
+        out.print(f"[bold]{script.name}[/]")
+        subprocess.run([sys.executable, str(script), *(["--quick"] if quick else [])], check=True)

@@ -10,9 +10,17 @@ import json
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, Protocol
 
 from ..protocol import Message, StreamParser
+
+
+class FrameRecorder(Protocol):
+    """Anything that wants the raw bytes of the bus as they pass ("tx" or "rx")."""
+
+    def record(self, direction: str, data: bytes) -> None: ...
+
+    def close(self) -> None: ...
 
 
 class TrafficLog:

@@ -11,7 +11,7 @@ from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
 from .actions import Discard, Note, Procedure, Receive, Send, SetBaud, Wait
 from .core import BusCore
-from .log import TrafficLog
+from .log import FrameRecorder, TrafficLog
 from .timing import Timing
 
 T = TypeVar("T")
@@ -20,7 +20,7 @@ T = TypeVar("T")
 def drive(
     procedure: Procedure[T],
     transport: Transport,
-    log: TrafficLog | None = None,
+    log: FrameRecorder | None = None,
     on_note: Callable[[Any], None] | None = None,
 ) -> T:
     """Carry out a procedure's actions on a transport until it returns."""
@@ -67,14 +67,20 @@ class Bus:
     """
 
     def __init__(
-        self, transport: Transport, retries: int = 2, timing: Timing | None = None, log_path: str | None = None
+        self,
+        transport: Transport,
+        retries: int = 2,
+        timing: Timing | None = None,
+        log_path: str | None = None,
+        tracer: FrameRecorder | None = None,
     ) -> None:
         self.transport = transport
         self.core = BusCore(
             baudrate=transport.baudrate, retries=retries, timing=timing or Timing(latency=transport.latency)
         )
         self._lock = threading.RLock()
-        self._log = TrafficLog(log_path) if log_path else None
+        # A tracer (e.g. the CLI's -v) sees the same bytes a traffic log would.
+        self._log: FrameRecorder | None = tracer or (TrafficLog(log_path) if log_path else None)
 
     @classmethod
     def open(cls, url: str, baudrate: int = 9600, **options: Any) -> Bus:

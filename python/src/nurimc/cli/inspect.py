@@ -1,0 +1,156 @@
+"""scan, ping, status, watch: finding controllers and reading them."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import typer
+from rich.live import Live
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from ..discovery import Progress as ScanProgress
+from ..discovery import discover
+from ..errors import NurimcError
+from ..motor import MotorState
+from ..protocol import BAUD_RATES
+from .app import app
+from .common import emit, err, one_id, open_bus, options, parse_ids, table
+
+
+def _rates(text: str | None) -> list[int]:
+    if not text:
+        return list(BAUD_RATES)
+    try:
+        rates = [int(r) for r in text.split(",")]
+    except ValueError:
+        raise typer.BadParameter("give rates like 9600,115200", param_hint="--rates") from None
+    bad = [r for r in rates if r not in BAUD_RATES]
+    if bad:
+        raise typer.BadParameter(f"{bad} not among the 18 rates {list(BAUD_RATES)}", param_hint="--rates")
+    return rates
+
+
+@app.command()
+def scan(
+    ctx: typer.Context,
+    rates: str = typer.Option(None, help="Only these rates, e.g. 9600,115200 (default: all 18)."),
+    ids: str = typer.Option(None, "--ids", help="Only ping these IDs one by one, e.g. 0-10 (default: all)."),
+) -> None:
+    """Find every controller across rates and IDs.
+
+    Example: nurimc --port /dev/ttyUSB0 scan --rates 9600,115200
+    """
+    o = options(ctx)
+    rate_list, id_list = _rates(rates), parse_ids(ids) or None
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total} rates"),
+        TimeElapsedColumn(),
+    )
+    with open_bus(o) as bus, Progress(*columns, console=err, disable=o.json, transient=True) as bar:
+        task = bar.add_task("scanning", total=len(rate_list))
+
+        def show(event: Any) -> None:
+            if isinstance(event, ScanProgress):
+                where = f"{event.rate} bps" + (f", ID {event.walking_id}" if event.walking_id is not None else "")
+                bar.update(task, completed=event.rate_index, description=f"{where}: {len(event.found)} found")
+
+        found = bus.run(discover(bus.core, rate_list, id_list), on_note=show)
+    rows = table(f"{len(found)} controller(s) found", "ID", "baud", "firmware", "note")
+    for f in found:
+        note = "several controllers share this ID" if f.collision else ""
+        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), note)
+    emit(o, [{"id": f.id, "baud": f.baudrate, "firmware": f.firmware, "collision": f.collision} for f in found], rows)
+
+
+@app.command()
+def ping(ctx: typer.Context) -> None:
+    """Check that a controller answers, and how fast.
+
+    Example: nurimc --port sim://?ids=0,1 --id 1 ping
+    """
+    o = options(ctx)
+    device_id = one_id(o)
+    with open_bus(o) as bus:
+        start = time.perf_counter()
+        bus.motor(device_id).ping()
+        elapsed = time.perf_counter() - start
+    emit(
+        o,
+        {"id": device_id, "baud": o.baud, "ok": True, "round_trip_ms": round(elapsed * 1000, 3)},
+        f"ID {device_id} answers at {o.baud} bps ({elapsed * 1000:.1f} ms)",
+    )
+
+
+def _state_dict(state: MotorState) -> dict[str, Any]:
+    return {
+        "position_deg": state.position,
+        "device_position_deg": state.device_position,
+        "speed_rpm": state.speed,
+        "current_a": state.current,
+        "direction": state.direction,
+    }
+
+
+@app.command()
+def status(ctx: typer.Context) -> None:
+    """Position, speed, current, direction and every setting of one controller.
+
+    Example: nurimc --port /dev/ttyUSB0 --id 1 status --json
+    """
+    o = options(ctx)
+    device_id = one_id(o)
+    with open_bus(o) as bus:
+        motor = bus.motor(device_id, o.product)
+        state = motor.read_state()
+        settings = motor.read_settings()
+    rows = table(f"ID {device_id} at {o.baud} bps", "", "value")
+    for key, value in _state_dict(state).items():
+        rows.add_row(key, str(value))
+    for key, value in settings.items():
+        rows.add_row(key, str(value))
+    emit(o, {"id": device_id, "baud": o.baud, "state": _state_dict(state), "settings": settings}, rows)
+
+
+@app.command()
+def watch(
+    ctx: typer.Context,
+    interval: float = typer.Option(0.1, help="Seconds between readings."),
+    count: int = typer.Option(0, help="Stop after this many readings (0: until Ctrl+C)."),
+) -> None:
+    """Live table of one or many motors (Ctrl+C to stop).
+
+    Example: nurimc --port /dev/ttyUSB0 --id 1,2,3 watch
+    """
+    o = options(ctx)
+    if not o.ids:
+        raise typer.BadParameter("give the motors to watch with --id 1,2,3", param_hint="--id")
+    readings: list[dict[str, Any]] = []
+    with open_bus(o) as bus:
+        motors = [bus.motor(i, o.product) for i in o.ids]
+
+        def render() -> Any:
+            rows = table(None, "ID", "position °", "speed RPM", "current A", "direction")
+            for m in motors:
+                try:
+                    s = m.read_state()
+                    readings.append({"id": m.id, **_state_dict(s)})
+                    rows.add_row(str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction)
+                except NurimcError as error:
+                    rows.add_row(str(m.id), "[red]no answer[/]", "", "", str(error)[:40])
+            return rows
+
+        n = 0
+        try:
+            with Live(render(), console=err if o.json else None, auto_refresh=False, transient=o.json) as live:
+                while True:
+                    n += 1
+                    if count and n >= count:
+                        break
+                    time.sleep(interval)
+                    live.update(render(), refresh=True)
+        except KeyboardInterrupt:
+            pass
+    emit(o, readings)

@@ -1,0 +1,152 @@
+"""get, set, backup, restore, factory-reset: settings, always verified by reading back."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from .. import config
+from ..client.sync import Bus
+from ..discovery import discover
+from ..motor import Motor
+from ..protocol import BAUD_RATES
+from ..settings import SETTINGS, setting
+from .app import app
+from .common import Options, emit, fail, one_id, open_bus, options, table
+
+NAMES = ", ".join([*SETTINGS, "id", "baud"])
+
+
+@app.command()
+def get(ctx: typer.Context, name: str = typer.Argument(..., help=f"One of: {NAMES}.")) -> None:
+    """Read one setting, in physical units.
+
+    Example: nurimc --port /dev/ttyUSB0 --id 1 get ratio
+    """
+    o = options(ctx)
+    if name in ("id", "baud"):
+        emit(
+            o,
+            {"id": one_id(o), "name": name, "value": one_id(o) if name == "id" else o.baud},
+            str(one_id(o) if name == "id" else o.baud),
+        )
+        return
+    s = setting(name)
+    with open_bus(o) as bus:
+        value = bus.motor(one_id(o), o.product).get(s.name)
+    emit(
+        o,
+        {"id": o.ids[0], "name": s.name, "value": value, "unit": s.unit},
+        f"{s.name} = {value}{' ' + s.unit if s.unit else ''}",
+    )
+
+
+@app.command(name="set")
+def set_(
+    ctx: typer.Context,
+    name: str = typer.Argument(..., help=f"One of: {NAMES}."),
+    value: str = typer.Argument(..., help="In physical units: 12.5 (ratio 12.5:1), 300us, 2.5A, cw, relative, 115200."),
+) -> None:
+    """Write one setting and verify it by reading it back.
+
+    Example: nurimc --port /dev/ttyUSB0 --id 1 set response-time 300us
+    """
+    o = options(ctx)
+    device_id = one_id(o)
+    with open_bus(o) as bus:
+        if name == "id":
+            new = _int(value, "id")
+            bus.run(config.change_id(bus.core, device_id, new))
+            emit(
+                o,
+                {"id": new, "name": "id", "value": new, "verified": True},
+                f"ID {device_id} is now ID {new} (verified)",
+            )
+            return
+        if name == "baud":
+            rate = _int(value, "baud")
+            if rate not in BAUD_RATES:
+                fail(f"baud {rate}: use one of {', '.join(map(str, BAUD_RATES))}")
+            bus.run(config.change_baud(bus.core, device_id, rate))
+            emit(
+                o,
+                {"id": device_id, "name": "baud", "value": rate, "verified": True},
+                f"ID {device_id} now talks at {rate} bps (verified); use --baud {rate} from now on",
+            )
+            return
+        s = setting(name)
+        written = bus.motor(device_id, o.product).set(s.name, value)
+    emit(
+        o,
+        {"id": device_id, "name": s.name, "value": written, "unit": s.unit, "verified": True},
+        f"{s.name} = {written}{' ' + s.unit if s.unit else ''} (verified)",
+    )
+
+
+def _int(text: str, what: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        fail(f"{what} must be a whole number, not {text!r}")
+
+
+def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
+    if o.ids:
+        return [bus.motor(i, o.product) for i in o.ids]
+    found = bus.run(discover(bus.core, [o.baud]))
+    if not found:
+        fail(f"no controller answers at {o.baud} bps; give --baud or --id", 1)
+    return [bus.motor(f.id, o.product) for f in found]
+
+
+@app.command()
+def backup(ctx: typer.Context, file: str = typer.Argument(..., help="JSON file to write.")) -> None:
+    """Save every setting of every motor (--id, or all found at --baud) to a file.
+
+    Example: nurimc --port /dev/ttyUSB0 backup robot.json
+    """
+    o = options(ctx)
+    with open_bus(o) as bus:
+        motors = _motors_on_bus(bus, o)
+        document = bus.run(config.backup([m.procedures for m in motors]))
+    config.save_backup(document, file)
+    emit(o, {"file": file, "ids": [m.id for m in motors]}, f"saved {len(motors)} motor(s) to {file}")
+
+
+@app.command()
+def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file written by backup.")) -> None:
+    """Write back every setting that differs from a backup (each verified).
+
+    Example: nurimc --port /dev/ttyUSB0 restore robot.json
+    """
+    o = options(ctx)
+    document = config.load_backup(file)
+    ids = [entry["id"] for entry in document.get("motors", [])]
+    with open_bus(o) as bus:
+        changed = bus.run(config.restore([bus.motor(i, o.product).procedures for i in ids], document))
+    rows = table(f"restored from {file}", "change")
+    for line in changed or ["nothing differed"]:
+        rows.add_row(line)
+    emit(o, {"file": file, "changed": changed}, rows)
+
+
+@app.command(name="factory-reset")
+def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", help="Do not ask.")) -> None:
+    """Erase every setting of one controller: it returns as ID 0 at 9600 bps.
+
+    Example: nurimc --port /dev/ttyUSB0 --id 3 factory-reset --yes
+    """
+    o = options(ctx)
+    device_id = one_id(o)
+    if not yes:
+        if not sys.stdin.isatty():
+            fail("factory reset erases every setting; add --yes to confirm")
+        typer.confirm(f"Erase every setting of ID {device_id}? It will come back as ID 0 at 9600 bps", abort=True)
+    with open_bus(o) as bus:
+        bus.run(config.factory_reset(bus.core, device_id, confirm=True))
+    emit(
+        o,
+        {"id": device_id, "reset": True, "now": {"id": 0, "baud": 9600}},
+        f"ID {device_id} reset to factory defaults: it is now ID 0 at 9600 bps",
+    )
