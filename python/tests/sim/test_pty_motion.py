@@ -55,10 +55,8 @@ def test_accel_position_arrives_in_time(make_pty: Callable[..., Pty]) -> None:
     fine_encoder(port)
     start = time.monotonic()
     command(port, 0, "accel_position", bytes([0]) + u16(18000) + bytes([5]))  # 180 deg in 0.5 s
-    time.sleep(0.15)
-    early = position(port, 0)
-    assert 0.0 < early < 150.0
-    settle(port, 180.0)
+    trace = settle(port, 180.0)
+    assert any(5.0 < p < 175.0 for p in trace), trace  # seen on the way
     assert time.monotonic() - start >= 0.4  # it took its time
 
 
