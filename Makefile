@@ -53,9 +53,12 @@ test-c: system-deps  ## C library: build, tests under ASan/UBSan, short fuzz, Co
 test-ts: system-deps  ## TypeScript library and web console tests
 	@if [ -f ts/package.json ]; then $(MAKE) -f ts/Makefile.inc test; else echo "no TypeScript library yet"; fi
 
-test: system-deps check-generated lint-python test-python fuzz-python-short conformance test-c test-ts  ## everything CI runs
+test-e2e: $(STAMP) system-deps  ## web console end-to-end tests in headless Chromium
+	@if [ -f e2e/Makefile.inc ]; then $(MAKE) -f e2e/Makefile.inc test; else echo "no web console tests yet"; fi
+
+test: system-deps check-generated lint-python test-python fuzz-python-short conformance test-c test-ts test-e2e  ## everything CI runs
 
 bench: $(STAMP)  ## run the benchmarks and record their results in benchmarks/results/
 	$(PY) benchmarks/protocol_bench.py
 
-.PHONY: help venv demo system-deps generate check-generated lint-python test-python fuzz-python-short fuzz-python conformance test-c test-ts test bench
+.PHONY: help venv demo system-deps generate check-generated lint-python test-python fuzz-python-short fuzz-python conformance test-c test-ts test-e2e test bench
