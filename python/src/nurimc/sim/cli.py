@@ -41,6 +41,7 @@ def sim(
     miss_rate: Annotated[float, typer.Option(help="Probability an answer never comes.")] = 0.0,
     echo: Annotated[bool, typer.Option("--echo", help="The adapter echoes the host's own bytes.")] = False,
     seed: Annotated[int, typer.Option(help="Seed of the fault generator (same seed, same faults).")] = 0,
+    eeprom_ms: Annotated[float, typer.Option(help="How long a settings write keeps a controller busy.")] = 50.0,
     verbose: Annotated[bool, typer.Option("-v", "--verbose", help="Log every frame received and sent.")] = False,
 ) -> None:
     """Simulated MC / BLMC-H controllers on a simulated RS485 bus, on a pseudo-terminal and/or TCP."""
@@ -51,7 +52,9 @@ def sim(
         stream=sys.stderr,
     )
     try:
-        bus = build_bus(ids, baud, motor or [], product, state, wire_timing, seed, _faults(locals()))
+        if eeprom_ms < 0:
+            raise OptionError(f"--eeprom-ms {eeprom_ms}: use 0 or more")
+        bus = build_bus(ids, baud, motor or [], product, state, wire_timing, seed, _faults(locals()), eeprom_ms)
     except (OptionError, StateError, ValueError) as exc:
         typer.echo(f"nurimc sim: {exc}", err=True)
         raise typer.Exit(2) from None
@@ -72,13 +75,14 @@ def build_bus(
     wire_timing: bool,
     seed: int,
     faults: FaultConfig,
+    eeprom_ms: float = 50.0,
 ) -> SimBus:
     if product not in PRODUCT_NAMES:
         raise OptionError(f"--product {product!r}: use one of {', '.join(PRODUCT_NAMES)}")
     check_baud(baud)
     id_list = parse_ids(ids if ids is not None else ("" if motors else "1"))
     motor_list = [parse_motor(text) for text in motors]
-    bus = SimBus(wire_timing=wire_timing, faults=faults, state_dir=state, seed=seed)
+    bus = SimBus(wire_timing=wire_timing, faults=faults, state_dir=state, seed=seed, eeprom_time=eeprom_ms / 1000)
     for i in id_list:
         bus.add_controller(i, baud, product)
     for i, rate in motor_list:
