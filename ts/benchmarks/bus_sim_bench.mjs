@@ -47,7 +47,7 @@ async function bare() {
 }
 
 async function library() {
-  const bus = new Bus(await NodeSerialPort.open(LINK, RATE), { adapterLatencyMs: 200 });
+  const bus = new Bus(await NodeSerialPort.open(LINK, RATE), {});
   const times = [];
   for (let i = 0; i < N; i++) {
     const t0 = process.hrtime.bigint();

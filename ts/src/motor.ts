@@ -125,7 +125,9 @@ export class Motor {
     const answer = (await this.bus.request(make(read, this.id, {}))) as unknown as Record<string, number>;
     const field = fieldOf(messageSpec(SETTINGS[name].write));
     const raw = answer[field.name] ?? NaN;
-    return field.values[raw] ?? (field.unit !== "" ? fromWire(raw, field.scale) : raw);
+    const value = field.values[raw] ?? (field.unit !== "" ? fromWire(raw, field.scale) : raw);
+    if (name === "response_time" && typeof value === "number") this.bus.responseTimesUs.set(this.id, value); // tighter deadlines
+    return value;
   }
 
   /** Write a setting (physical value or value name), wait for the EEPROM write, read it back; VerifyError if it differs. */
@@ -134,6 +136,7 @@ export class Motor {
     const field = fieldOf(spec);
     const raw = wireValue(field.values, field.unit !== "" ? field.scale : 1, value, `${name}`);
     await this.bus.send(make(spec.name, this.id, { [field.name]: raw }));
+    if (name === "response_time") this.bus.responseTimesUs.delete(this.id); // old or new: assume the largest until read back
     await sleep(this.settleMs);
     const back = await this.readSetting(name);
     const expected = field.values[raw] ?? (field.unit !== "" ? fromWire(raw, field.scale) : raw);

@@ -2,7 +2,7 @@ import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { BusClosedError, BusError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "../src/bus/errors.js";
 import { receive } from "../src/bus/port.js";
-import { answerTimeoutMs, wireTimeMs } from "../src/bus/timing.js";
+import { answerDeadlineMs, wireTimeMs } from "../src/bus/timing.js";
 import { decode, encode, make, type Message } from "../src/codec.js";
 import { FieldRangeError } from "../src/errors.js";
 import { toHex } from "../src/frame.js";
@@ -21,7 +21,7 @@ function answering(ids: number[]) {
   };
 }
 
-const fast = { adapterLatencyMs: 15 }; // short timeouts for silence tests; answers come within a few ms
+const fast = { timing: { latencyMs: 5, assumedResponseTimeUs: 100 } }; // short timeouts for silence tests; answers come within a few ms
 
 describe("bus client", () => {
   it("returns the answer that matches the request's ID and answer mode", async () => {
@@ -86,10 +86,18 @@ describe("bus client", () => {
 
   it("sends commands once without waiting, and never repeats one (a relative move must not run twice)", async () => {
     const port = new FakePort(() => null);
-    const bus = new Bus(port, { adapterLatencyMs: 600_000 }); // waiting for an answer would time the test out
+    const bus = new Bus(port, { timing: { latencyMs: 600_000 } }); // waiting for an answer would time the test out
     await bus.send(make("set_position_mode", 1, { position_mode: 1 }));
     await bus.send(make("position_speed", 1, { direction: 0, position: 9000, speed: 100 }));
     expect(port.writes.map(toHex)).toEqual([toHex(encode(make("set_position_mode", 1, { position_mode: 1 }))), "fffe010747010023280064"]);
+    expect(bus.stats.commands).toBe(2);
+  });
+
+  it("sends several commands back to back in one write", async () => {
+    const port = new FakePort();
+    const bus = new Bus(port, fast);
+    await bus.send(make("set_control", 1, { control: 0 }), make("set_control", 2, { control: 0 }));
+    expect(port.writes.map(toHex)).toEqual(["fffe0103ef0c00" + "fffe0203ee0c00"]);
     expect(bus.stats.commands).toBe(2);
   });
 
@@ -115,10 +123,13 @@ describe("bus client", () => {
 
   it("computes the timeout from baud rate, frame lengths, response time and adapter latency", () => {
     expect(wireTimeMs(12, 9600)).toBeCloseTo(12.5, 6);
-    const t = answerTimeoutMs({ requestBytes: 6, answerBytes: 12, baudRate: 9600, responseTimeUs: 100, adapterLatencyMs: 20 });
-    expect(t).toBeCloseTo(6.25 + 0.1 + 12.5 + 20, 6);
-    const bus = new Bus(new FakePort(() => null, 110), { adapterLatencyMs: 20, responseTimeUs: 25400 });
-    expect(bus.timeoutMs(make("request_position", 0, {}))).toBeCloseTo((18 * 10 * 1000) / 110 + 25.4 + 20, 6);
+    // the Python library's rule and defaults: wire both ways + response time + 2 x 2 ms latency + 3 ms margin
+    expect(answerDeadlineMs(6, 12, 9600, 100)).toBeCloseTo(6.25 + 12.5 + 0.1 + 4 + 3, 6);
+    expect(answerDeadlineMs(6, 12, 9600, undefined)).toBeCloseTo(6.25 + 12.5 + 25.4 + 4 + 3, 6); // unknown: the largest setting
+    const bus = new Bus(new FakePort(() => null, 110), { timing: { latencyMs: 16 }, responseTimesUs: { 3: 300 } });
+    expect(bus.timeoutMs(make("request_position", 3, {}))).toBeCloseTo((18 * 10 * 1000) / 110 + 0.3 + 32 + 3, 6);
+    expect(bus.timeoutMs(make("request_position", 4, {}))).toBeCloseTo((18 * 10 * 1000) / 110 + 25.4 + 32 + 3, 6);
+    expect(() => new Bus(new FakePort(), { timing: { latencyMs: -1 } })).toThrow(/timing.latencyMs = -1/);
   });
 
   it("fails every call after the port fails or the bus is closed", async () => {
@@ -164,7 +175,7 @@ describe("bus client on arbitrary bus bytes", () => {
     await fc.assert(
       fc.asyncProperty(fc.array(fc.uint8Array({ maxLength: 20 }), { maxLength: 4 }), fc.boolean(), async (junk, withAnswer) => {
         const port = new FakePort(() => (withAnswer ? [...junk, answerFrame] : junk));
-        const bus = new Bus(port, { adapterLatencyMs: withAnswer ? 200 : 5, retries: 0 }); // generous where an answer is due
+        const bus = new Bus(port, { timing: { latencyMs: withAnswer ? 100 : 1, assumedResponseTimeUs: 100 }, retries: 0 }); // generous where an answer is due
         try {
           const answer = await bus.request(make("request_ping", 6, {}));
           expect(answer).toEqual(make("ping", 6, {}));

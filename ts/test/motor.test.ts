@@ -27,7 +27,7 @@ function controller(options: { deaf?: boolean } = {}) {
 describe("Motor", () => {
   it("sends motion in physical units, rounded by the shared rule", async () => {
     const { port, sent } = controller();
-    const motor = new Motor(new Bus(port, { adapterLatencyMs: 20 }), 2);
+    const motor = new Motor(new Bus(port, { timing: { latencyMs: 10 } }), 2);
     await motor.moveTo(180.005, 100, "cw");
     await motor.moveIn(90, 1.5);
     await motor.run(2.55, "ccw", 2);
@@ -50,13 +50,13 @@ describe("Motor", () => {
   });
 
   it("reads the state in physical units", async () => {
-    const motor = new Motor(new Bus(controller().port, { adapterLatencyMs: 20 }), 2);
+    const motor = new Motor(new Bus(controller().port, { timing: { latencyMs: 10 } }), 2);
     expect(await motor.readState()).toEqual({ position: 180.01, direction: "cw", speed: 123.4, current: 1.5 });
   });
 
   it("writes a setting and verifies it by reading it back", async () => {
     const { port, state } = controller();
-    const motor = new Motor(new Bus(port, { adapterLatencyMs: 20 }), 2, { settleMs: 1 });
+    const motor = new Motor(new Bus(port, { timing: { latencyMs: 10 } }), 2, { settleMs: 1 });
     await motor.writeSetting("rated_speed", 2000);
     expect(state.rated_speed).toBe(2000);
     await motor.writeSetting("control", "off");
@@ -65,14 +65,14 @@ describe("Motor", () => {
   });
 
   it("raises VerifyError when the controller did not take the setting", async () => {
-    const motor = new Motor(new Bus(controller({ deaf: true }).port, { adapterLatencyMs: 20 }), 2, { settleMs: 1 });
+    const motor = new Motor(new Bus(controller({ deaf: true }).port, { timing: { latencyMs: 10 } }), 2, { settleMs: 1 });
     const failure = motor.writeSetting("rated_speed", 2000);
     await expect(failure).rejects.toBeInstanceOf(VerifyError);
     await expect(failure).rejects.toThrow(/rated_speed: wrote 2000 but the controller reports 3000/);
   });
 
   it("says false to a ping nobody answers", async () => {
-    const motor = new Motor(new Bus(controller().port, { adapterLatencyMs: 10, retries: 0 }), 9);
+    const motor = new Motor(new Bus(controller().port, { retries: 0 }), 9);
     expect(await motor.ping()).toBe(false);
   });
 });

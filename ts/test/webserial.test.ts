@@ -54,7 +54,7 @@ const pingAnswer = (written: Uint8Array): Uint8Array | null => {
 describe("WebSerialPort", () => {
   it("opens 8N1 at the rate asked, and carries a request and its answer", async () => {
     const device = new FakeSerialDevice(pingAnswer);
-    const bus = new Bus(await WebSerialPort.open(device, 115200), { adapterLatencyMs: 50 });
+    const bus = new Bus(await WebSerialPort.open(device, 115200), { timing: { latencyMs: 25 } });
     expect(await bus.request(make("request_ping", 3, {}))).toEqual(make("ping", 3, {}));
     expect(device.opens).toEqual([{ baudRate: 115200, dataBits: 8, stopBits: 1, parity: "none", flowControl: "none" }]);
     await bus.close();
@@ -64,7 +64,7 @@ describe("WebSerialPort", () => {
   it("changes the rate by closing and reopening the port, and keeps working", async () => {
     const device = new FakeSerialDevice(pingAnswer);
     const port = await WebSerialPort.open(device, 9600);
-    const bus = new Bus(port, { adapterLatencyMs: 50 });
+    const bus = new Bus(port, { timing: { latencyMs: 25 } });
     await bus.setBaudRate(1_000_000);
     expect(port.baudRate).toBe(1_000_000);
     expect(device.opens.map((o) => o.baudRate)).toEqual([9600, 1_000_000]);

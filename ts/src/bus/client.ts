@@ -8,8 +8,10 @@
  *   request's + 0x30. The adapter's echo of our own request is skipped; bytes that
  *   arrived between transactions (stale) are discarded before a request is sent;
  *   noise is skipped by the stream parser.
- * - The timeout comes from the wire (see timing.ts); a request with no answer is
- *   sent again up to `retries` more times, then a typed error says why it failed.
+ * - The timeout comes from the wire (see timing.ts); a request with no valid answer is
+ *   sent again up to `retries` more times (after a short pause), then a typed error says
+ *   why the last attempt failed: other frames (unexpected) before broken bytes
+ *   (corrupted) before silence (no answer).
  */
 import { answerName, encode, messageSpec, type AnswerMessageOf, type Message, type MessageOf } from "../codec.js";
 import type { AnswerOf } from "../generated/messages.js";
@@ -17,18 +19,20 @@ import { BAUD_RATES } from "../generated/tables.js";
 import { StreamParser } from "../parser.js";
 import { BusClosedError, BusError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "./errors.js";
 import type { BytePort } from "./port.js";
-import { answerTimeoutMs, DEFAULT_ADAPTER_LATENCY_MS } from "./timing.js";
+import { answerDeadlineMs, DEFAULT_TIMING, type Timing } from "./timing.js";
 
 /** Requests with an answer (all of them: every request is answered). */
 type RequestName = keyof AnswerOf;
 
 export interface BusOptions {
-  /** Extra time the adapter and OS add before received bytes reach us (default 20 ms). */
-  adapterLatencyMs?: number;
-  /** The controllers' response time in microseconds, if set above the default 100 us. */
-  responseTimeUs?: number;
+  /** Latency, margin and the response time assumed for unknown controllers (timing.ts). */
+  timing?: Partial<Timing>;
+  /** Known response-time settings (us) per controller ID; the others are assumed the largest. */
+  responseTimesUs?: Record<number, number>;
   /** How many times a request is sent again after no (valid) answer (default 2). */
   retries?: number;
+  /** Pause before a retry, ms (default 5). */
+  retryPauseMs?: number;
   /** Every frame sent and received, decoded: for a traffic log or a raw view. */
   onTraffic?: (event: TrafficEvent) => void;
 }
@@ -65,9 +69,11 @@ interface Pending {
 export class Bus {
   readonly stats: BusStats = { requests: 0, commands: 0, retries: 0, echoes: 0, staleFrames: 0, unexpectedFrames: 0, noAnswer: 0, corrupted: 0 };
   readonly parser = new StreamParser();
-  adapterLatencyMs: number;
-  responseTimeUs: number;
+  timing: Timing;
+  /** Known response-time settings (us) per controller ID (Motor keeps it up to date). */
+  readonly responseTimesUs: Map<number, number>;
   retries: number;
+  retryPauseMs: number;
   private readonly onTraffic: ((event: TrafficEvent) => void) | undefined;
   private readonly opened = Date.now();
   private readonly unsubscribe: Array<() => void>;
@@ -79,9 +85,12 @@ export class Bus {
     readonly port: BytePort,
     options: BusOptions = {},
   ) {
-    this.adapterLatencyMs = nonNegative("adapterLatencyMs", options.adapterLatencyMs ?? DEFAULT_ADAPTER_LATENCY_MS);
-    this.responseTimeUs = nonNegative("responseTimeUs", options.responseTimeUs ?? 100);
+    const timing = { ...DEFAULT_TIMING, ...options.timing };
+    for (const [key, value] of Object.entries(timing)) nonNegative(`timing.${key}`, value);
+    this.timing = timing;
+    this.responseTimesUs = new Map(Object.entries(options.responseTimesUs ?? {}).map(([id, us]) => [Number(id), nonNegative("responseTimesUs", us)]));
     this.retries = nonNegative("retries", options.retries ?? 2);
+    this.retryPauseMs = nonNegative("retryPauseMs", options.retryPauseMs ?? 5);
     this.onTraffic = options.onTraffic;
     this.unsubscribe = [
       port.onData((chunk) => this.received(chunk)),
@@ -103,21 +112,23 @@ export class Bus {
     return this.exclusive(() => this.port.setBaudRate(rate));
   }
 
-  /** Send a command (modes 01-10) once, without waiting: controllers never answer commands. */
-  send(command: Message): Promise<void> {
-    const spec = messageSpec(command.name);
-    if (spec.kind !== "command") {
-      return Promise.reject(new BusError(`${command.name} is a ${spec.kind}, not a command; use request() for feedback requests`));
-    }
-    let frame: Uint8Array;
+  /** Send commands (modes 01-10) back to back in one write, once, without waiting: controllers never answer them. */
+  send(...commands: Message[]): Promise<void> {
+    const frames: Uint8Array[] = [];
     try {
-      frame = encode(command);
+      for (const command of commands) {
+        const spec = messageSpec(command.name);
+        if (spec.kind !== "command") throw new BusError(`${command.name} is a ${spec.kind}, not a command; use request() for feedback requests`);
+        frames.push(encode(command));
+      }
     } catch (err) {
       return Promise.reject(err);
     }
+    const bytes = new Uint8Array(frames.reduce((n, f) => n + f.length, 0));
+    frames.reduce((at, f) => (bytes.set(f, at), at + f.length), 0);
     return this.exclusive(async () => {
-      this.stats.commands += 1;
-      await this.transmit(command, frame);
+      this.stats.commands += commands.length;
+      if (bytes.length > 0) await this.transmit(commands, bytes);
     });
   }
 
@@ -140,15 +151,15 @@ export class Bus {
     return this.exclusive(() => this.transact(request, frame, answer, retries));
   }
 
-  /** The timeout of one attempt of `request` at the current rate. */
+  /** The timeout of one attempt of `request` at the current rate (from the end of the write). */
   timeoutMs(request: Message): number {
-    return answerTimeoutMs({
-      requestBytes: messageSpec(request.name).size + 4,
-      answerBytes: messageSpec(answerName(request.name)).size + 4,
-      baudRate: this.port.baudRate,
-      responseTimeUs: this.responseTimeUs,
-      adapterLatencyMs: this.adapterLatencyMs,
-    });
+    return answerDeadlineMs(
+      messageSpec(request.name).size + 4,
+      messageSpec(answerName(request.name)).size + 4,
+      this.port.baudRate,
+      this.responseTimesUs.get(request.id),
+      this.timing,
+    );
   }
 
   /** Stop listening and close the port; queued calls fail with BusClosedError. */
@@ -161,10 +172,12 @@ export class Bus {
   private async transact(request: Message, frame: Uint8Array, answer: string, retries: number): Promise<Message> {
     this.stats.requests += 1;
     const timeout = this.timeoutMs(request);
-    let corrupted = { dropped: 0, badChecksum: 0 };
-    let unexpected: Message[] = [];
+    let failure: Error = new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
     for (let attempt = 0; attempt <= retries; attempt++) {
-      if (attempt > 0) this.stats.retries += 1;
+      if (attempt > 0) {
+        this.stats.retries += 1;
+        await sleep(this.retryPauseMs);
+      }
       this.parser.clear(); // stale partial bytes from before this request
       const before = { ...this.parser.stats };
       const pending: Pending = { request, answer, unexpected: [], resolve: () => undefined };
@@ -177,7 +190,7 @@ export class Bus {
       });
       this.pending = pending;
       try {
-        await this.transmit(request, frame);
+        await this.transmit([request], frame);
         const message = await got;
         if (message !== null) return message;
       } finally {
@@ -186,21 +199,19 @@ export class Bus {
       this.parser.clear(); // a partial frame left at the timeout counts as unusable bytes
       const dropped = this.parser.stats.droppedBytes - before.droppedBytes;
       const badChecksum = this.parser.stats.badChecksum - before.badChecksum;
-      if (dropped > 0 || badChecksum > 0) corrupted = { dropped: corrupted.dropped + dropped, badChecksum: corrupted.badChecksum + badChecksum };
-      unexpected = unexpected.concat(pending.unexpected);
+      // the last attempt's failure is reported, in the Python library's order of precedence
+      if (pending.unexpected.length > 0) failure = new UnexpectedAnswerError(request, pending.unexpected);
+      else if (dropped > 0 || badChecksum > 0) failure = new CorruptedAnswerError(request, attempt + 1, dropped, badChecksum);
+      else failure = new NoAnswerError(request, attempt + 1, timeout, this.port.baudRate);
     }
-    if (corrupted.dropped > 0 || corrupted.badChecksum > 0) {
-      this.stats.corrupted += 1;
-      throw new CorruptedAnswerError(request, retries + 1, corrupted.dropped, corrupted.badChecksum);
-    }
-    if (unexpected.length > 0) throw new UnexpectedAnswerError(request, unexpected);
-    this.stats.noAnswer += 1;
-    throw new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
+    if (failure instanceof CorruptedAnswerError) this.stats.corrupted += 1;
+    if (failure instanceof NoAnswerError) this.stats.noAnswer += 1;
+    throw failure;
   }
 
-  private async transmit(message: Message, frame: Uint8Array): Promise<void> {
+  private async transmit(messages: Message[], frame: Uint8Array): Promise<void> {
     if (this.closed !== null) throw this.closed instanceof BusError ? this.closed : new BusClosedError(`the port failed: ${this.closed.message}`, { cause: this.closed });
-    this.onTraffic?.({ direction: "tx", time: Date.now() - this.opened, message });
+    for (const message of messages) this.onTraffic?.({ direction: "tx", time: Date.now() - this.opened, message });
     await this.port.write(frame);
   }
 
@@ -231,6 +242,8 @@ export class Bus {
     return run;
   }
 }
+
+const sleep = (ms: number): Promise<void> => new Promise((resolve) => setTimeout(resolve, ms));
 
 function nonNegative(name: string, value: number): number {
   if (!Number.isFinite(value) || value < 0) throw new RangeError(`bus option ${name} = ${value}: must be a finite number >= 0`);

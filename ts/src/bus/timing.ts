@@ -1,31 +1,40 @@
 /**
- * How long an answer can take, from what the wire and the controller allow.
+ * How long an answer may take: derived from the wire, never guessed (the Python
+ * library's rule, nurimc.client.timing, with the same defaults).
  *
- * request on the wire + the controller's response time + answer on the wire + the
- * adapter's latency. Bytes are 10 bits on the wire (8N1: start, 8 data, stop).
- * USB-RS485 adapters hold received bytes for 1-16 ms before the host sees them
- * (FTDI's latency timer defaults to 16 ms), hence the adapter latency term.
+ * deadline (from the end of our write) = request wire time + the controller's response
+ * time + answer wire time + adapter latency (both ways) + a small margin. Bytes are 10
+ * bits on the wire (8N1: start, 8 data, stop). A controller whose response-time setting
+ * is unknown is assumed to use the largest (254 x 100 us = 25.4 ms).
  */
 export const BITS_PER_BYTE = 10;
+/** The largest response-time setting, in microseconds. */
+export const MAX_RESPONSE_TIME_US = 254 * 100;
 
-/** Default adapter latency: covers a USB adapter at its default latency timer, with room to spare. */
-export const DEFAULT_ADAPTER_LATENCY_MS = 20;
+export interface Timing {
+  /** Adapter latency each way, ms (USB adapters: 1-16 ms; FTDI's latency timer defaults to 16). Default 2. */
+  latencyMs: number;
+  /** Scheduling slack of a busy host, ms. Default 3. */
+  marginMs: number;
+  /** Response time assumed for a controller whose setting is unknown, us. Default 25,400 (the largest). */
+  assumedResponseTimeUs: number;
+}
+
+export const DEFAULT_TIMING: Readonly<Timing> = { latencyMs: 2, marginMs: 3, assumedResponseTimeUs: MAX_RESPONSE_TIME_US };
 
 /** Milliseconds `bytes` take on the wire at `baudRate`. */
 export function wireTimeMs(bytes: number, baudRate: number): number {
   return (bytes * BITS_PER_BYTE * 1000) / baudRate;
 }
 
-export interface AnswerTiming {
-  requestBytes: number;
-  answerBytes: number;
-  baudRate: number;
-  /** The controller's response-time setting in microseconds (100 us per step; default 100 us). */
-  responseTimeUs: number;
-  adapterLatencyMs: number;
-}
-
-/** The longest a real answer can take; after that none is coming. */
-export function answerTimeoutMs(t: AnswerTiming): number {
-  return wireTimeMs(t.requestBytes, t.baudRate) + t.responseTimeUs / 1000 + wireTimeMs(t.answerBytes, t.baudRate) + t.adapterLatencyMs;
+/** The longest a real answer can take after the request is written; after that none is coming. */
+export function answerDeadlineMs(
+  requestBytes: number,
+  answerBytes: number,
+  baudRate: number,
+  responseTimeUs: number | undefined,
+  timing: Readonly<Timing> = DEFAULT_TIMING,
+): number {
+  const response = (responseTimeUs ?? timing.assumedResponseTimeUs) / 1000;
+  return wireTimeMs(requestBytes + answerBytes, baudRate) + response + 2 * timing.latencyMs + timing.marginMs;
 }
