@@ -61,7 +61,7 @@ def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Proce
     core = motors[0].core
     window = (len(motors) + 1) * slot * 100e-6 + core.timing.wire_time(6 + FEEDBACK_LENGTH, core.baudrate)
     window += 2 * core.timing.latency + core.timing.margin
-    answers, _ = yield from core.broadcast_ask(RequestPosition, window)
+    answers, _ = yield from core.broadcast_ask(RequestPosition, window, expect=len(motors))
     by_id = {m.id: m for m in motors}
     return {a.id: by_id[a.id].state_from(a) for a in answers if a.id in by_id}
 

@@ -101,8 +101,11 @@ class BusCore:
         repeat could not be told from the first (and a relative move would move twice)."""
         yield Send(b"".join(c.encode() for c in commands))
 
-    def broadcast_ask(self, request_cls: type[Request], window: float) -> Procedure[tuple[list[Message], int]]:
-        """Send a request to ID 0xFF and collect every answer within `window` seconds.
+    def broadcast_ask(
+        self, request_cls: type[Request], window: float, expect: int | None = None
+    ) -> Procedure[tuple[list[Message], int]]:
+        """Send a request to ID 0xFF and collect every answer within `window` seconds
+        (or until `expect` answers from distinct IDs have come).
 
         Outside the document's §17 (which gives requests IDs 0-254 only), but controllers answer
         it each after its own response time: answers collide unless those are staggered.
@@ -117,7 +120,7 @@ class BusCore:
             for message in parser.feed(data) if data else parser.finish():
                 if type(message) is cls:
                     answers.append(message)
-            if not data:
+            if not data or (expect is not None and len({a.id for a in answers}) >= expect):
                 return answers, parser.stats.dropped_bytes
 
     def set_baud(self, rate: int) -> Procedure[None]:
