@@ -132,6 +132,18 @@ describe("bus client", () => {
     expect(() => new Bus(new FakePort(), { timing: { latencyMs: -1 } })).toThrow(/timing.latencyMs = -1/);
   });
 
+  it("counts the deadline from the end of the write, not its start", async () => {
+    const port = new FakePort();
+    port.write = async (data) => {
+      port.writes.push(data.slice());
+      await new Promise((r) => setTimeout(r, 150)); // a slow port: far longer than the ~24 ms deadline
+      port.inject(encode(make("ping", 1, {})));
+    };
+    const bus = new Bus(port, { ...fast, timing: { latencyMs: 10, assumedResponseTimeUs: 100 }, retries: 0 });
+    expect(bus.timeoutMs(make("request_ping", 1, {}))).toBeLessThan(50);
+    expect(await bus.request(make("request_ping", 1, {}))).toEqual(make("ping", 1, {}));
+  });
+
   it("fails every call after the port fails or the bus is closed", async () => {
     const port = new FakePort(answering([1]));
     const bus = new Bus(port, fast);

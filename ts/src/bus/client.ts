@@ -180,20 +180,18 @@ export class Bus {
       }
       this.parser.clear(); // stale partial bytes from before this request
       const before = { ...this.parser.stats };
-      const pending: Pending = { request, answer, unexpected: [], resolve: () => undefined };
-      const got = new Promise<Message | null>((resolve) => {
-        const timer = setTimeout(() => resolve(null), timeout);
-        pending.resolve = (message) => {
-          clearTimeout(timer);
-          resolve(message);
-        };
-      });
-      this.pending = pending;
+      let settle: (message: Message | null) => void = () => undefined;
+      const got = new Promise<Message | null>((resolve) => (settle = resolve));
+      const pending: Pending = { request, answer, unexpected: [], resolve: (message) => settle(message) };
+      this.pending = pending; // before the write: a fast answer may come before write() resolves
+      let timer: ReturnType<typeof setTimeout> | undefined;
       try {
         await this.transmit([request], frame);
+        timer = setTimeout(() => settle(null), timeout); // the deadline counts from the end of the write
         const message = await got;
         if (message !== null) return message;
       } finally {
+        clearTimeout(timer);
         this.pending = null;
       }
       this.parser.clear(); // a partial frame left at the timeout counts as unusable bytes
