@@ -44,7 +44,10 @@ def sim(
     eeprom_ms: Annotated[float, typer.Option(help="How long a settings write keeps a controller busy.")] = 50.0,
     verbose: Annotated[bool, typer.Option("-v", "--verbose", help="Log every frame received and sent.")] = False,
 ) -> None:
-    """Simulated MC / BLMC-H controllers on a simulated RS485 bus, on a pseudo-terminal and/or TCP."""
+    """Simulated MC / BLMC-H controllers on a simulated RS485 bus, on a pseudo-terminal and/or TCP.
+
+    Example: nurimc sim --link /tmp/nurimc0 --ids 1,2 --motor 3@57600 --wire-timing
+    """
     logging.basicConfig(
         level=logging.DEBUG if verbose else logging.WARNING,
         format="%(asctime)s.%(msecs)03d %(message)s",
