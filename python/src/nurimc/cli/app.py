@@ -53,7 +53,7 @@ def version() -> None:
 
 
 def _register() -> None:
-    from . import demo, frames, inspect, motion, settings_cmd, sim_cmd  # noqa: F401 - each registers its commands
+    from . import dashboard_cmd, demo, frames, inspect, motion, settings_cmd, sim_cmd  # noqa: F401 - each registers its commands
 
 
 def main() -> None:

@@ -1,0 +1,71 @@
+"""`nurimc dashboard`: the web console (docs/dashboard.md)."""
+
+from __future__ import annotations
+
+import socket
+
+import typer
+
+from ..client.sync import Bus
+from .app import app
+from .common import EXIT_USAGE, fail, open_bus, options, out
+
+
+@app.command()
+def dashboard(
+    ctx: typer.Context,
+    sim: bool = typer.Option(False, "--sim", help="Run on a simulated bus (three motors) instead of --port."),
+    listen: str = typer.Option("127.0.0.1:8485", "--listen", help="HOST:PORT to serve on (port 0: any free port)."),
+    token: str = typer.Option(
+        None, "--token", envvar="NURIMC_DASHBOARD_TOKEN", help="Secret the page must present; required off loopback."
+    ),
+    allow_host: list[str] = typer.Option([], "--allow-host", help="Another name this server is reached by."),
+) -> None:
+    """Serve the web console: discover, plot, drive, tune, back up; emergency stop.
+
+    Example: nurimc --port /dev/ttyUSB0 --baud 115200 dashboard   (then open http://127.0.0.1:8485)
+    """
+    import uvicorn
+
+    from ..dashboard import DashboardConfig, create_app
+    from ..dashboard.frames import FrameTap
+    from ..dashboard.security import ListenError, SecurityPolicy, parse_listen
+
+    o = options(ctx)
+    try:
+        address = parse_listen(listen)
+        policy = SecurityPolicy.build(address, token, tuple(allow_host))
+    except ListenError as error:
+        fail(str(error), EXIT_USAGE)
+    tap = FrameTap()
+    sim_bus = None
+    if sim:
+        from ..dashboard.simulated import simulated_bus
+
+        sim_bus, bus = simulated_bus(tap)
+    else:
+        bus = Bus(open_bus(o).transport, tracer=tap)
+
+    family = socket.AF_INET6 if ":" in address.host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((address.host, address.port))
+    except OSError as error:
+        fail(f"cannot listen on {listen}: {error.strerror}; pick another --listen HOST:PORT", EXIT_USAGE)
+    sock.listen(64)
+    port = sock.getsockname()[1]
+    shown = f"[{address.host}]" if family == socket.AF_INET6 else address.host
+    url = f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
+
+    def ready() -> None:
+        out.print(f"ready: {url}", soft_wrap=True)
+
+    config = DashboardConfig(bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, on_ready=ready)
+    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", ws_max_size=1 << 20))
+    try:
+        server.run(sockets=[sock])
+    finally:
+        bus.close()
+        if sim_bus is not None:
+            sim_bus.close()

@@ -1,0 +1,102 @@
+"""Who may drive the motors: the listening address, the token, and Host / Origin checks.
+
+A page from another site runs in the same browser as the console and can open websockets to
+127.0.0.1. Browsers always send Origin on a websocket handshake, so the console accepts only
+its own origin; the Host check stops DNS rebinding (a foreign name resolving to 127.0.0.1).
+"""
+
+from __future__ import annotations
+
+import hmac
+import ipaddress
+from dataclasses import dataclass, field
+from urllib.parse import urlsplit
+
+DEFAULT_LISTEN = "127.0.0.1:8485"
+LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
+TOKEN_COOKIE = "nurimc_token"
+
+
+class ListenError(ValueError):
+    """A --listen / --token combination the console refuses."""
+
+
+@dataclass(frozen=True, slots=True)
+class ListenAddress:
+    host: str
+    port: int
+
+    @property
+    def loopback(self) -> bool:
+        if self.host == "localhost":
+            return True
+        try:
+            return ipaddress.ip_address(self.host).is_loopback
+        except ValueError:
+            return False
+
+    @property
+    def wildcard(self) -> bool:
+        return self.host in ("0.0.0.0", "::")
+
+
+def parse_listen(text: str) -> ListenAddress:
+    """'HOST:PORT', '[v6]:PORT' or ':PORT' (all addresses) -> ListenAddress (ListenError if malformed)."""
+    text = text.strip()
+    if text.startswith("["):
+        host, _, rest = text[1:].partition("]")
+        port_text = rest[1:] if rest.startswith(":") else ""
+    else:
+        host, _, port_text = text.rpartition(":")
+        if ":" in host:
+            raise ListenError(f"--listen {text!r}: write IPv6 addresses in brackets, e.g. [::1]:8485")
+    host = host or "0.0.0.0"
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ListenError(f"--listen {text!r}: give HOST:PORT, e.g. 127.0.0.1:8485") from None
+    if not 0 <= port <= 65535:
+        raise ListenError(f"--listen {text!r}: port {port} is not 0..65535")
+    return ListenAddress(host, port)
+
+
+@dataclass(frozen=True)
+class SecurityPolicy:
+    """What a request must carry. Built once from the command line."""
+
+    listen: ListenAddress
+    token: str | None = None
+    extra_hosts: tuple[str, ...] = field(default=())
+
+    @classmethod
+    def build(cls, listen: ListenAddress, token: str | None, extra_hosts: tuple[str, ...] = ()) -> SecurityPolicy:
+        if token is not None and len(token) < 16:
+            raise ListenError("--token must be at least 16 characters (e.g. `python3 -c 'import secrets; print(secrets.token_urlsafe())'`)")
+        if not listen.loopback and not token:
+            raise ListenError(
+                f"listening on {listen.host} lets other machines drive the motors: give --token SECRET "
+                "(at least 16 characters), or listen on 127.0.0.1"
+            )
+        return cls(listen, token, extra_hosts)
+
+    def host_allowed(self, host_header: str | None) -> bool:
+        """The Host header names this server (not a rebinding name)."""
+        if not host_header:
+            return False
+        name = urlsplit(f"//{host_header}").hostname or ""
+        if name in LOOPBACK_NAMES or name in self.extra_hosts or name == self.listen.host:
+            return True
+        # On a wildcard address the machine has names we cannot list; the token guards it.
+        return self.listen.wildcard and self.token is not None
+
+    def origin_allowed(self, origin: str | None, host_header: str | None) -> bool:
+        """The websocket comes from a page this server served (same scheme-less host:port)."""
+        if not origin or not host_header:
+            return False
+        parts = urlsplit(origin)
+        return parts.scheme in ("http", "https") and parts.netloc.lower() == host_header.lower()
+
+    def token_ok(self, presented: str | None) -> bool:
+        if self.token is None:
+            return True
+        return presented is not None and hmac.compare_digest(presented.encode(), self.token.encode())
