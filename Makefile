@@ -58,7 +58,11 @@ test-e2e: $(STAMP) system-deps  ## web console end-to-end tests in headless Chro
 
 test: system-deps check-generated lint-python test-python fuzz-python-short conformance test-c test-ts test-e2e  ## everything CI runs
 
-bench: $(STAMP)  ## run the benchmarks and record their results in benchmarks/results/
+bench: $(STAMP)  ## run every benchmark and record the results (benchmarks/results/, ts/benchmarks/results/)
 	$(PY) benchmarks/protocol_bench.py
+	$(PY) benchmarks/library_bench.py
+	$(PY) benchmarks/sim_realtime.py
+	$(MAKE) -f c/Makefile.inc bench
+	$(MAKE) -f ts/Makefile.inc ts-bench
 
 .PHONY: help venv demo system-deps generate check-generated lint-python test-python fuzz-python-short fuzz-python conformance test-c test-ts test-e2e test bench
