@@ -7,42 +7,36 @@ retries, timeouts, motor logic — is the very code the sync Bus runs.
 from __future__ import annotations
 
 import asyncio
-import time
 from typing import Any, TypeVar
 
 from ..motor import MotorProcedures, MotorState
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Discard, Note, Procedure, Receive, Send, SetBaud, Wait
+from .actions import Procedure, Receive, Wait
 from .core import BusCore
+from .perform import Performer
 from .timing import Timing
 
 T = TypeVar("T")
 
 
 async def drive_async(procedure: Procedure[T], transport: Transport) -> T:
-    sent_at = time.monotonic()
+    performer = Performer(transport)
     result: Any = None
     try:
         action = procedure.send(None)
         while True:
             if type(action) is Receive:
-                remaining = sent_at + action.deadline - time.monotonic()
-                result = await asyncio.to_thread(transport.read, action.max_bytes, remaining) if remaining > 0 else b""
-            elif type(action) is Send:
-                transport.write(action.data)
-                sent_at = time.monotonic()
-                result = None
-            elif type(action) is Discard:
-                result = transport.discard_input()
+                remaining = performer.remaining(action.deadline)
+                if remaining > 0:
+                    result = await asyncio.to_thread(transport.read, action.max_bytes, remaining)
+                else:
+                    result = b""
             elif type(action) is Wait:
                 await asyncio.sleep(action.seconds)
                 result = None
-            elif type(action) is SetBaud:
-                transport.baudrate = action.rate
-                result = None
-            elif type(action) is Note:
-                result = None
+            else:
+                result = performer.perform(action)
             action = procedure.send(result)
     except StopIteration as stop:
         return stop.value  # type: ignore[no-any-return]

@@ -9,9 +9,10 @@ from typing import Any, TypeVar
 
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Discard, Note, Procedure, Receive, Send, SetBaud, Wait
+from .actions import Procedure, Receive, Wait
 from .core import BusCore
 from .log import FrameRecorder, TrafficLog
+from .perform import Performer
 from .timing import Timing
 
 T = TypeVar("T")
@@ -24,36 +25,19 @@ def drive(
     on_note: Callable[[Any], None] | None = None,
 ) -> T:
     """Carry out a procedure's actions on a transport until it returns."""
-    sent_at = time.monotonic()
+    performer = Performer(transport, log, on_note)
     result: Any = None
     try:
         action = procedure.send(None)
         while True:
             if type(action) is Receive:
-                remaining = sent_at + action.deadline - time.monotonic()
-                result = transport.read(action.max_bytes, remaining) if remaining > 0 else b""
-                if log and result:
-                    log.record("rx", result)
-            elif type(action) is Send:
-                transport.write(action.data)
-                sent_at = time.monotonic()
-                if log:
-                    log.record("tx", action.data)
-                result = None
-            elif type(action) is Discard:
-                result = transport.discard_input()
-                if log and result:
-                    log.record("rx", result)
+                remaining = performer.remaining(action.deadline)
+                result = performer.received(transport.read(action.max_bytes, remaining)) if remaining > 0 else b""
             elif type(action) is Wait:
                 time.sleep(action.seconds)
                 result = None
-            elif type(action) is SetBaud:
-                transport.baudrate = action.rate
-                result = None
-            elif type(action) is Note:
-                if on_note:
-                    on_note(action.event)
-                result = None
+            else:
+                result = performer.perform(action)
             action = procedure.send(result)
     except StopIteration as stop:
         return stop.value  # type: ignore[no-any-return]
