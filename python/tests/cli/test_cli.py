@@ -46,7 +46,7 @@ def pty() -> Iterator[tuple[SimBus, str]]:
 def test_scan_finds_every_controller(pty) -> None:  # type: ignore[no-untyped-def]
     found = ok_json("scan", "--rates", "9600,115200", port=pty[1])
     assert sorted((f["id"], f["baud"]) for f in found) == [(1, 9600), (2, 9600), (7, 115200)]
-    assert set(found[0]) == {"id", "baud", "firmware", "collision"}
+    assert set(found[0]) == {"id", "baud", "firmware", "collision", "product_guess"}
     table = cli("scan", "--rates", "9600", port=pty[1])
     assert table.returncode == 0 and "2 controller(s) found" in table.stdout
 

@@ -92,7 +92,11 @@ def open_bus(o: Options) -> Bus:
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1) or set NURIMC_PORT")
-    return Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None)
+    bus = Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None)
+    warning = getattr(bus.transport, "warning", None)
+    if warning:
+        err.print(f"[yellow]warning:[/] {warning}", soft_wrap=True)
+    return bus
 
 
 def one_id(o: Options) -> int:

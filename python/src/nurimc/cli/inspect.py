@@ -9,6 +9,7 @@ import typer
 from rich.live import Live
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from ..client.sync import Bus
 from ..discovery import Progress as ScanProgress
 from ..discovery import discover
 from ..errors import NurimcError
@@ -58,11 +59,40 @@ def scan(
                 bar.update(task, completed=event.rate_index, description=f"{where}: {len(event.found)} found")
 
         found = bus.run(discover(bus.core, rate_list, id_list), on_note=show)
-    rows = table(f"{len(found)} controller(s) found", "ID", "baud", "firmware", "note")
+        guesses = {}
+        for f in found:
+            bus.baudrate = f.baudrate
+            guesses[(f.id, f.baudrate)] = product_guess(bus, f.id) if not f.collision else "?"
+    rows = table(f"{len(found)} controller(s) found", "ID", "baud", "firmware", "product (guess)", "note")
     for f in found:
         note = "several controllers share this ID" if f.collision else ""
-        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), note)
-    emit(o, [{"id": f.id, "baud": f.baudrate, "firmware": f.firmware, "collision": f.collision} for f in found], rows)
+        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), guesses[(f.id, f.baudrate)], note)
+    emit(
+        o,
+        [
+            {
+                "id": f.id,
+                "baud": f.baudrate,
+                "firmware": f.firmware,
+                "collision": f.collision,
+                "product_guess": guesses[(f.id, f.baudrate)],
+            }
+            for f in found
+        ],
+        rows,
+    )
+
+
+def product_guess(bus: Bus, device_id: int) -> str:
+    """The protocol does not say which product answers. A guess from the resolution setting:
+    hall pole counts (BLMC-H) are small even numbers, encoder pulse counts (MC) usually are not."""
+    try:
+        resolution = bus.motor(device_id).get("resolution")
+    except NurimcError:
+        return "?"
+    if resolution == 4:
+        return "unknown (default resolution 4)"
+    return "BLMC-H?" if isinstance(resolution, int) and resolution <= 24 and resolution % 2 == 0 else "MC?"
 
 
 @app.command()

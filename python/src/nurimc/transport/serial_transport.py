@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import logging
 import os
 import select
 import time
@@ -40,7 +41,10 @@ class SerialTransport:
     def __init__(self, port: Any, url: str, latency: float | None = None) -> None:
         self.port = port
         self.url = url
-        self.latency = estimate_latency(url)[0] if latency is None else latency
+        estimated, self.warning = estimate_latency(url)  # warning: e.g. a slow FTDI latency timer
+        self.latency = estimated if latency is None else latency
+        if self.warning:
+            logging.getLogger("nurimc").warning(self.warning)
         self._fd: int | None = None
         try:
             self._fd = port.fileno()
