@@ -7,9 +7,17 @@ import time
 from collections import deque
 from typing import Any
 
-from ..protocol import StreamParser
+from ..protocol import Message, ProtocolError, StreamParser, build_frame
 
 KEEP = 5000  # frames kept for a page that opens the raw view late
+
+
+def _hex(message: Message) -> str:
+    try:
+        return message.encode().hex(" ")
+    except ProtocolError:  # e.g. a broadcast request (ID 255): valid on the wire, refused by the encoder
+        spec = message.SPEC
+        return build_frame(message.id, spec.mode, spec.layout.pack(*message.fields().values())).hex(" ")
 
 
 class FrameTap:
@@ -24,6 +32,14 @@ class FrameTap:
         self.enabled = False  # decoding costs little, but nothing is queued unless a page watches
 
     def record(self, direction: str, data: bytes) -> None:
+        try:
+            self._record(direction, data)
+        except Exception as error:  # noqa: BLE001 - the raw view must never break a bus transaction
+            with self._lock:
+                self._pending.append({"t": 0, "dir": direction, "hex": data.hex(" "), "name": "tap error",
+                                      "id": None, "fields": {"error": str(error)}})
+
+    def _record(self, direction: str, data: bytes) -> None:
         parser = self._parsers.get(direction)
         if parser is None:
             return
@@ -31,8 +47,7 @@ class FrameTap:
         dropped_before = parser.stats.dropped_bytes
         frames = parser.feed(data)
         entries = [
-            {"t": t, "dir": direction, "hex": m.encode().hex(" "), "name": m.name, "id": m.id, "fields": m.physical()}
-            for m in frames
+            {"t": t, "dir": direction, "hex": _hex(m), "name": m.name, "id": m.id, "fields": m.physical()} for m in frames
         ]
         noise = parser.stats.dropped_bytes - dropped_before
         if noise:

@@ -175,7 +175,7 @@ def create_app(config: DashboardConfig) -> Starlette:
         Route("/", index),
         Route("/api/info", info),
         WebSocketRoute("/ws", socket),
-        Mount("/static", StaticFiles(directory=STATIC), name="static"),
+        Mount("/", StaticFiles(directory=STATIC), name="static"),  # the page's files, relative to it
     ]
     app = Starlette(routes=routes, lifespan=lifespan)
     app.add_middleware(GuardMiddleware, policy=config.policy)
