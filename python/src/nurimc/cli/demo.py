@@ -86,6 +86,7 @@ def demo(seconds: float = typer.Option(4.0, help="How long to watch the motors m
     for rate, motor in motors:
         bus.baudrate = rate
         motor.release()
+    out.print()
     out.print(f"released all motors. Bus statistics: {bus.stats.as_dict()}")
     out.print(
         "Next: [bold]nurimc sim --link /tmp/nurimc0 --ids 1,2[/] and [bold]nurimc --port /tmp/nurimc0 --id 1 status[/]"
