@@ -16,6 +16,10 @@ $(STAMP): python/pyproject.toml
 
 venv: $(STAMP)  ## Python virtual environment with nurimc and its dev tools
 
+dashboard: $(STAMP)  ## the web console on a simulated bus: http://127.0.0.1:8485
+	bash scripts/dashboard-assets.sh
+	$(VENV)/bin/nurimc dashboard --sim
+
 demo: $(STAMP)  ## the main job: a simulated bus, discovery, motion, live state
 	$(VENV)/bin/nurimc demo
 
@@ -34,6 +38,7 @@ lint-python: $(STAMP)  ## ruff and mypy
 	cd python && ../$(VENV)/bin/ruff check src tests && ../$(VENV)/bin/ruff format --check src tests && ../$(VENV)/bin/mypy
 
 test-python: $(STAMP)  ## Python tests (protocol, simulator, library, CLI, dashboard)
+	bash scripts/dashboard-assets.sh
 	cd python && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
 
 fuzz-python-short: $(STAMP)  ## a short atheris run of the stream parser (part of make test)
@@ -64,5 +69,6 @@ bench: $(STAMP)  ## run every benchmark and record the results (benchmarks/resul
 	$(PY) benchmarks/sim_realtime.py
 	$(MAKE) -f c/Makefile.inc bench
 	$(MAKE) -f ts/Makefile.inc ts-bench
+	$(MAKE) -f e2e/Makefile.inc e2e-rate
 
-.PHONY: help venv demo system-deps generate check-generated lint-python test-python fuzz-python-short fuzz-python conformance test-c test-ts test-e2e test bench
+.PHONY: help venv dashboard demo system-deps generate check-generated lint-python test-python fuzz-python-short fuzz-python conformance test-c test-ts test-e2e test bench

@@ -51,6 +51,7 @@ test("a move shows in the live plot", async () => {
 test("a setting change is written, verified and shown", async () => {
   await page.click("nav button[data-view=settings]");
   await page.selectOption("#settings-motor", "2");
+  await page.waitForFunction(() => window.dashboard.settingsShownFor === 2);
   const row = page.locator("#setting-position-kp");
   await row.locator("input").fill("77");
   await row.getByRole("button", { name: "Write" }).click();
@@ -108,7 +109,8 @@ test("the emergency stop releases every motor on the bus", async () => {
     return out;
   });
   assert.deepEqual(controls, { 1: "off", 2: "off", 3: "off" });
-  assert.equal(await page.locator(".card[data-control=off]").count(), 3);
+  const shown = await page.evaluate(() => [...document.querySelectorAll(".card")].map((card) => card.dataset.control));
+  assert.deepEqual(shown, ["off", "off", "off"], await page.getAttribute("#estop", "data-last-result"));
 });
 
 function handshake(url, headers) {
@@ -153,7 +155,7 @@ test("direct mode: without the server the page offers Web Serial through the Typ
   }
 });
 
-test("the vendored uPlot is the version e2e/package.json pins", () => {
+test("the uPlot copied from npm next to the page is the version e2e/package.json pins", () => {
   const pinned = JSON.parse(readFileSync(join(ROOT, "e2e/node_modules/uplot/package.json"))).version;
   assert.equal(readFileSync(join(STATIC, "vendor/uplot/VERSION"), "utf8").trim(), pinned);
   assert.deepEqual(readFileSync(join(STATIC, "vendor/uplot/uPlot.esm.js")), readFileSync(join(ROOT, "e2e/node_modules/uplot/dist/uPlot.esm.js")));

@@ -32,6 +32,10 @@ def dashboard(
     from ..dashboard.security import ListenError, SecurityPolicy, parse_listen
 
     o = options(ctx)
+    from ..dashboard.server import MISSING_ASSETS, STATIC, UPLOT
+
+    if not (STATIC / UPLOT).is_file():
+        fail(MISSING_ASSETS, EXIT_USAGE)
     try:
         address = parse_listen(listen)
         policy = SecurityPolicy.build(address, token, tuple(allow_host))

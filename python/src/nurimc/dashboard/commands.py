@@ -102,8 +102,19 @@ class Frames:
 
 
 Command = (
-    Discover | Watch | Move | Run | Release | Hold | ReadSettings | WriteSetting | Step | Backup | Restore
-    | EmergencyStop | Frames
+    Discover
+    | Watch
+    | Move
+    | Run
+    | Release
+    | Hold
+    | ReadSettings
+    | WriteSetting
+    | Step
+    | Backup
+    | Restore
+    | EmergencyStop
+    | Frames
 )
 
 _checker = MotorProcedures(BusCore(), 1)  # its builders only check ranges; it never touches a bus

@@ -34,10 +34,18 @@ class FrameTap:
     def record(self, direction: str, data: bytes) -> None:
         try:
             self._record(direction, data)
-        except Exception as error:  # noqa: BLE001 - the raw view must never break a bus transaction
+        except Exception as error:
             with self._lock:
-                self._pending.append({"t": 0, "dir": direction, "hex": data.hex(" "), "name": "tap error",
-                                      "id": None, "fields": {"error": str(error)}})
+                self._pending.append(
+                    {
+                        "t": 0,
+                        "dir": direction,
+                        "hex": data.hex(" "),
+                        "name": "tap error",
+                        "id": None,
+                        "fields": {"error": str(error)},
+                    }
+                )
 
     def _record(self, direction: str, data: bytes) -> None:
         parser = self._parsers.get(direction)
@@ -47,11 +55,14 @@ class FrameTap:
         dropped_before = parser.stats.dropped_bytes
         frames = parser.feed(data)
         entries = [
-            {"t": t, "dir": direction, "hex": _hex(m), "name": m.name, "id": m.id, "fields": m.physical()} for m in frames
+            {"t": t, "dir": direction, "hex": _hex(m), "name": m.name, "id": m.id, "fields": m.physical()}
+            for m in frames
         ]
         noise = parser.stats.dropped_bytes - dropped_before
         if noise:
-            entries.append({"t": t, "dir": direction, "hex": "", "name": "noise", "id": None, "fields": {"bytes": noise}})
+            entries.append(
+                {"t": t, "dir": direction, "hex": "", "name": "noise", "id": None, "fields": {"bytes": noise}}
+            )
         with self._lock:
             self.recent.extend(entries)
             if self.enabled:

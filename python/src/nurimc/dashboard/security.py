@@ -71,7 +71,10 @@ class SecurityPolicy:
     @classmethod
     def build(cls, listen: ListenAddress, token: str | None, extra_hosts: tuple[str, ...] = ()) -> SecurityPolicy:
         if token is not None and len(token) < 16:
-            raise ListenError("--token must be at least 16 characters (e.g. `python3 -c 'import secrets; print(secrets.token_urlsafe())'`)")
+            raise ListenError(
+                "--token must be at least 16 characters "
+                "(e.g. `python3 -c 'import secrets; print(secrets.token_urlsafe())'`)"
+            )
         if not listen.loopback and not token:
             raise ListenError(
                 f"listening on {listen.host} lets other machines drive the motors: give --token SECRET "

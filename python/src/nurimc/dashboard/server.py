@@ -26,6 +26,11 @@ from .security import TOKEN_COOKIE, SecurityPolicy
 from .worker import BusWorker
 
 STATIC = Path(__file__).parent / "static"
+UPLOT = "vendor/uplot/uPlot.esm.js"  # from npm, not committed: scripts/dashboard-assets.sh
+MISSING_ASSETS = (
+    "the console's plotting library (uPlot, from npm) is not installed next to the page: "
+    "run `bash scripts/dashboard-assets.sh` (or `make dashboard`) in the nurimc source tree"
+)
 FLUSH_SECONDS = 0.02  # samples and frames go out in batches 50 times a second
 CLIENT_QUEUE = 256  # messages waiting for a slow page before its live data is dropped
 POLICY_VIOLATION = 1008
@@ -107,7 +112,11 @@ def create_app(config: DashboardConfig) -> Starlette:
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
         loop = asyncio.get_running_loop()
-        w = BusWorker(config.bus, config.product, lambda event: loop.call_soon_threadsafe(hub.broadcast, event))
+
+        def publish(event: dict[str, Any]) -> None:  # called from the bus thread
+            loop.call_soon_threadsafe(hub.broadcast, event)
+
+        w = BusWorker(config.bus, config.product, publish)
         state["worker"] = w
         w.start()
         flusher = asyncio.create_task(flush())
@@ -125,6 +134,8 @@ def create_app(config: DashboardConfig) -> Starlette:
             response: Response = RedirectResponse("/", status_code=303)
             response.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="strict")
             return response
+        if not (STATIC / UPLOT).is_file():
+            return PlainTextResponse(MISSING_ASSETS, status_code=503)
         return HTMLResponse((STATIC / "index.html").read_text(encoding="utf-8"))
 
     async def info(request: Request) -> Response:
@@ -203,7 +214,8 @@ async def _receive_loop(
         if isinstance(command, c.Frames):  # the raw view: no bus work, just whether frames are queued
             config.tap.enabled = command.on
             recent = list(config.tap.recent) if command.on else []
-            await websocket.send_text(json.dumps({"type": "reply", "req": req, "ok": True, "result": {"recent": recent}}))
+            await websocket.send_text(
+                json.dumps({"type": "reply", "req": req, "ok": True, "result": {"recent": recent}})
+            )
             continue
         worker().submit(command, reply_to(req))
-

@@ -23,6 +23,7 @@ from . import commands as c
 from .stepresponse import analyse
 
 POLL_HZ = 200.0  # at most this many reads of each watched motor per second
+ESTOP_VERIFY_SECONDS = 1.0  # the controllers answer again once their EEPROM write is done (50-300 ms)
 ERROR_REPEAT = 1.0  # s between two reports of the same motor's read failure
 
 Done = Callable[[Any, str | None], None]  # (result, error message)
@@ -107,7 +108,7 @@ class BusWorker:
         except (NurimcError, FieldRangeError, ValueError, KeyError) as error:
             text = error.args[0] if isinstance(error, KeyError) and error.args else str(error)
             done(None, str(text))
-        except Exception as error:  # noqa: BLE001 - the page gets a message, the thread lives on
+        except Exception as error:
             done(None, f"internal error: {type(error).__name__}: {error}")
 
     def _poll(self) -> None:
@@ -143,7 +144,7 @@ class BusWorker:
             raise Interrupted
 
     # -- commands --------------------------------------------------------------------
-    def _execute(self, command: c.Command) -> Any:  # noqa: PLR0911 - one branch per command
+    def _execute(self, command: c.Command) -> Any:
         match command:
             case c.Discover(rates):
                 return self._discover(rates)
@@ -250,13 +251,20 @@ class BusWorker:
         for rate in rates:
             self.bus.baudrate = rate
             self.bus.send(SetControl(BROADCAST_ID, 1))
-        controls: dict[str, Any] = {}
         for device_id in self.known:
-            motor = self.motor(device_id)
-            motor.release()  # records the state in the handle (the next move turns control on again)
-            try:
-                controls[str(device_id)] = motor.get("control")
-            except NurimcError as error:
-                controls[str(device_id)] = f"unknown: {error}"
+            self.motor(device_id).release()  # records it in the handle: the next move turns control on again
+        controls: dict[str, Any] = {}
+        for device_id in self.known:  # each controller is busy writing EEPROM for a while: retry in a window
+            controls[str(device_id)] = self._read_control(device_id)
         self.publish({"type": "estop", "rates": rates, "control": controls})
         return {"rates": rates, "control": controls}
+
+    def _read_control(self, device_id: int) -> str:
+        deadline = time.monotonic() + ESTOP_VERIFY_SECONDS
+        while True:
+            try:
+                return str(self.motor(device_id).get("control"))
+            except NurimcError as error:
+                if time.monotonic() >= deadline:
+                    return f"unknown: {error}"
+                time.sleep(0.05)

@@ -264,6 +264,7 @@ function fillSettingsTable() {
       ? build("select", {}, ...s.choices.map((c) => build("option", { value: c, textContent: c })))
       : build("input", { type: "number", min: s.min, max: s.max, step: s.step, title: s.range });
     input.disabled = !s.writable;
+    input.oninput = () => { input.dataset.edited = "yes"; }; // a read-back must not overwrite what the user types
     const result = build("td", { className: "result" });
     const write = build("button", { textContent: "Write", disabled: !s.writable });
     const row = build("tr", { id: `setting-${s.name}` },
@@ -280,6 +281,7 @@ function fillSettingsTable() {
         const answer = await ask("set", { id, name: s.name, value });
         row.querySelector(".value").textContent = answer.value;
         result.textContent = `written and verified: ${answer.value}`;
+        delete input.dataset.edited;
         result.className = "result ok";
       } catch (error) {
         result.textContent = error.message;
@@ -298,11 +300,16 @@ async function readSettings() {
     if (!row) continue;
     row.querySelector(".value").textContent = value;
     const input = row.querySelector("input, select");
-    if (input && !input.disabled) input.value = value;
+    if (input && !input.disabled && !input.dataset.edited) input.value = value;
   }
+  dashboard.settingsShownFor = id;
   return answer.settings;
 }
 $("#settings-read").onclick = readSettings;
+$("#settings-motor").onchange = () => {
+  for (const input of document.querySelectorAll("#settings-table [data-edited]")) delete input.dataset.edited;
+  readSettings().catch(() => {});
+};
 
 // ---- step response ------------------------------------------------------------------------
 let stepPlot = null;
