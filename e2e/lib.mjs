@@ -53,10 +53,8 @@ export function startStaticSite(bundle) {
   return new Promise((resolve) => server.listen(0, "127.0.0.1", () => resolve({ url: `http://127.0.0.1:${server.address().port}/`, stop: () => server.close() })));
 }
 
-/** Discover the simulated motors from the page; resolves with the IDs it shows. */
+/** The page discovers on its first load when the server knows no motors; resolves with the IDs it shows. */
 export async function discover(page) {
-  await page.waitForFunction(() => window.dashboard?.link, null, { timeout: 20000 });
-  await page.click("#discover");
   await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found, null, { timeout: 60000 });
   return (await page.getAttribute("#discover-text", "data-found")).split(",").map(Number);
 }

@@ -1,7 +1,7 @@
 """Generate the Python protocol tables and message classes from spec/protocol.json.
 
 Writes python/src/nurimc/protocol/_tables.py (constants and specs) and
-python/src/nurimc/protocol/messages.py (one typed dataclass per message).
+python/src/nurimc/protocol/messages.py (one typed class per message).
 """
 
 from __future__ import annotations
@@ -52,7 +52,8 @@ def tables(spec: dict[str, Any]) -> str:
         fields = "".join(f"\n            {_field_expr(f)}," for f in m["fields"])
         lines.append(
             f"    {m['name']!r}: MessageSpec(\n"
-            f"        {m['name']!r}, Kind.{m['kind'].upper()}, 0x{m['mode']:02X}, {m['size']}, {m['section']}, {m['title']!r},\n"
+            f"        {m['name']!r}, Kind.{m['kind'].upper()}, 0x{m['mode']:02X}, {m['size']}, "
+            f"{m['section']}, {m['title']!r},\n"
             f"        ({fields}\n        ),\n"
             f"        answer={m.get('answer')!r}, request={answers_of.get(m['name'])!r}, max_id={m['max_id']},\n"
             "    ),"
@@ -66,11 +67,11 @@ def messages(spec: dict[str, Any]) -> str:
         BANNER,
         '"""One typed class per message. Field values are raw wire integers; see nurimc.protocol.units."""\n',
         "from __future__ import annotations\n",
-        "from dataclasses import dataclass",
-        "from typing import ClassVar\n",
+        "from typing import TYPE_CHECKING, ClassVar, Self\n",
         "from ._tables import SPECS",
-        "from .message import Answer, Command, Message, Request",
+        "from .message import Answer, Command, Message, Request, field_getter",
         "from .schema import MessageSpec\n",
+        "_new = tuple.__new__  # builds the (id, *fields) tuple of a message class in one C call",
     ]
     base = {"command": "Command", "request": "Request", "answer": "Answer"}
     names = []
@@ -85,15 +86,32 @@ def messages(spec: dict[str, Any]) -> str:
             doc.append(f"{f['name']}: {f['min']}..{f['max']}{unit}")
         lines_ = [doc[0], "", *doc[1:]] if len(doc) > 1 else doc
         body = "\n".join(f"    {line}" if line else "" for line in lines_).lstrip()
+        names_ = ["id", *(f["name"] for f in m["fields"])]
+        params = ", ".join(f"{n}: int" for n in names_)
         lines += [
             "",
-            "@dataclass(frozen=True, slots=True)",
+            "",
             f"class {cls}({base[m['kind']]}):",
             f'    """{body}\n    """\n',
+            "    __slots__ = ()",
             f"    SPEC: ClassVar[MessageSpec] = SPECS[{m['name']!r}]",
-            "    id: int",
-            *(f"    {f['name']}: int" for f in m["fields"]),
+            f"    __match_args__ = {tuple(names_)!r}",
+        ]
+        if m["fields"]:
+            lines += [
+                "",
+                "    if TYPE_CHECKING:",
+                *(f"        {f['name']}: int" for f in m["fields"]),
+                "    else:",
+                *(
+                    f"        {f['name']} = field_getter({i}, {f['name']!r})"
+                    for i, f in enumerate(m["fields"], start=1)
+                ),
+            ]
+        lines += [
             "",
+            f"    def __new__(cls, {params}) -> Self:  # noqa: A002",
+            f"        return _new(cls, ({', '.join(names_)}{',' if len(names_) == 1 else ''}))",
         ]
     lines += ["", "MESSAGES: dict[str, type[Message]] = {"]
     lines += [f"    {name!r}: {cls}," for name, cls in names]

@@ -15,17 +15,14 @@ import sys
 
 import speclib
 
-LANGUAGES = ("python", "c", "ts")
+GENERATORS = ("gen_python", "gen_c", "gen_ts", "gen_host", "gen_settings")
 
 
 def main() -> int:
     check = "--check" in sys.argv[1:]
     stale = []
-    for lang in LANGUAGES:
-        try:
-            module = importlib.import_module(f"gen_{lang}")
-        except ModuleNotFoundError:
-            continue  # that language has no generated code (yet)
+    for name in GENERATORS:
+        module = importlib.import_module(name)  # a missing or broken generator fails loudly
         stale += module.generate(speclib.load(), check)
     for path in stale:
         verb = "stale" if check else "wrote"

@@ -276,12 +276,198 @@ def stream_vectors() -> list[dict[str, Any]]:
     return out
 
 
+# ---- the line contract (conformance/README.md) -----------------------------
+
+MAX_LINE_BYTES = 4 * 1024 * 1024
+MAX_DEPTH = 64
+BAD_REQUEST = {"error": "bad_request"}
+
+
+def line_vec(name: str, pieces: list[tuple[str, int]], expect: dict[str, Any]) -> dict[str, Any]:
+    """A vector whose line is raw text: each piece repeated, joined (no newline inside)."""
+    assert all("\n" not in text for text, _ in pieces), name
+    return {"name": name, "line": [[text, times] for text, times in pieces], "expect": expect}
+
+
+def bytes_vec(name: str, raw: bytes, expect: dict[str, Any]) -> dict[str, Any]:
+    assert b"\n" not in raw, name
+    return {"name": name, "line_bytes": raw.hex(), "expect": expect}
+
+
+def edge_vectors() -> list[dict[str, Any]]:
+    ping = encode("request_ping", 0, {})
+    pos_ans = encode("position_feedback", 7, {"direction": 0, "position": 18000, "speed": 0, "current": 0})
+    decoded_ping = decode(ping)
+    decoded_ans = decode(pos_ans)
+    decode_line = json.dumps({"op": "decode", "hex": hexs(pos_ans)}, separators=(",", ":"))
+    gains = {"kp": 1, "ki": 2, "kd": 3, "rated_current": 4}
+    out: list[dict[str, Any]] = []
+
+    # lines: what one is, and that each gets exactly one answer
+    out.append(line_vec("empty line", [], BAD_REQUEST))
+    out.append(line_vec("blank line (spaces and a tab)", [("  \t ", 1)], BAD_REQUEST))
+    out.append(line_vec("line of a lone \\r", [("\r", 1)], BAD_REQUEST))
+    out.append(line_vec("\\r\\n line ending", [(decode_line + "\r", 1)], decoded_ans))
+    out.append(line_vec("\\r between tokens is whitespace", [(decode_line.replace(",", "\r,"), 1)], decoded_ans))
+    out.append(line_vec("\\r alone in the middle of a line is no line end", [('{"op":"decode",\r"hex":"' + hexs(ping) + '"}', 1)], decoded_ping))
+    out.append(line_vec("raw \\r inside a string", [('{"op":"decode","hex":"ff\rfe"}', 1)], BAD_REQUEST))
+    out.append(line_vec("raw tab inside a string", [('{"op":"decode\t"}', 1)], BAD_REQUEST))
+    out.append(line_vec("leading and trailing whitespace", [(" \t" + decode_line + " \t ", 1)], decoded_ans))
+    out.append(line_vec("not JSON", [("hello", 1)], BAD_REQUEST))
+    out.append(line_vec("two objects on one line", [(decode_line + decode_line, 1)], BAD_REQUEST))
+    for text in ("[]", "1", '"decode"', "null", "true"):
+        out.append(line_vec(f"top-level {text} is no object", [(text, 1)], BAD_REQUEST))
+
+    # encodings
+    out.append(bytes_vec("raw NUL byte after the object", decode_line.encode() + b"\x00", BAD_REQUEST))
+    out.append(bytes_vec("raw NUL byte inside a string", b'{"op":"dec\x00ode"}', BAD_REQUEST))
+    out.append(bytes_vec("invalid UTF-8 (lone continuation byte) in a string", b'{"op":"\x80"}', BAD_REQUEST))
+    out.append(bytes_vec("invalid UTF-8 (0xFF) in a string", b'{"op":"decode","hex":"\xff"}', BAD_REQUEST))
+    out.append(bytes_vec("overlong UTF-8 of '/'", b'{"op":"\xc0\xaf"}', BAD_REQUEST))
+    out.append(bytes_vec("UTF-8-encoded surrogate", b'{"op":"\xed\xa0\x80"}', BAD_REQUEST))
+    out.append(bytes_vec("truncated UTF-8 sequence", b'{"op":"\xe2\x82"}', BAD_REQUEST))
+    out.append(bytes_vec("byte order mark", b"\xef\xbb\xbf" + decode_line.encode(), BAD_REQUEST))
+    out.append(line_vec("escaped lone high surrogate", [('{"op":"\\ud800"}', 1)], BAD_REQUEST))
+    out.append(line_vec("escaped lone low surrogate", [('{"op":"x\\udc00y"}', 1)], BAD_REQUEST))
+    out.append(line_vec("escaped surrogate pair is one character", [('{"op":"\\ud83d\\ude00"}', 1)], {"error": "unknown_op"}))
+    out.append(line_vec("valid UTF-8 key is an unknown field, echoed",
+                        [('{"op":"encode","id":0,"message":"request_ping","\u00e9t\u00e9":1}', 1)],
+                        {"error": "unknown_field", "field": "\u00e9t\u00e9"}))
+
+    # strict JSON
+    for text in ("NaN", "Infinity", "-Infinity", "01", "+1", ".5", "1.", "-", "1e", "0x10", "'x'"):
+        out.append(line_vec(f"{text} is not a JSON value",
+                            [('{"op":"encode","id":0,"message":"request_ping","x":' + text + "}", 1)], BAD_REQUEST))
+    out.append(line_vec("NaN as a field value", [('{"op":"encode","id":1,"message":"position_gains","kp":NaN,"ki":2,"kd":3,"rated_current":4}', 1)], BAD_REQUEST))
+    out.append(line_vec("Infinity as the id", [('{"op":"encode","id":Infinity,"message":"request_ping"}', 1)], BAD_REQUEST))
+    out.append(line_vec("trailing comma", [('{"op":"decode","hex":"",}', 1)], BAD_REQUEST))
+    out.append(line_vec("comment", [('{"op":"decode"/* c */,"hex":""}', 1)], BAD_REQUEST))
+    out.append(line_vec("single-quoted key", [("{'op':'decode'}", 1)], BAD_REQUEST))
+    out.append(line_vec("unquoted key", [('{op:"decode"}', 1)], BAD_REQUEST))
+    out.append(line_vec("bad escape", [('{"op":"\\x41"}', 1)], BAD_REQUEST))
+    out.append(line_vec("unterminated string", [('{"op":"decode', 1)], BAD_REQUEST))
+    out.append(line_vec("unclosed object", [('{"op":"decode","hex":""', 1)], BAD_REQUEST))
+    out.append(line_vec("duplicate keys: the last one counts",
+                        [('{"op":"encode","op":"decode","hex":"00","hex":"' + hexs(ping) + '"}', 1)], decoded_ping))
+    out.append(line_vec("escapes in names are names", [('{"\\u006fp":"\\u0064ecode","hex":"' + hexs(ping) + '"}', 1)], decoded_ping))
+
+    # numbers: integers are written as integers
+    for text in ("0.0", "1.0", "-0.0", "1e2", "1E0", "2.5e1", "1e400", "-1e400", "1e-400"):
+        out.append(line_vec(f"{text} is not an integer (field)",
+                            [('{"op":"encode","id":1,"message":"position_gains","kp":' + text + ',"ki":2,"kd":3,"rated_current":4}', 1)],
+                            {"error": "type", "field": "kp"}))
+        out.append(line_vec(f"{text} is not an integer (id)",
+                            [('{"op":"encode","id":' + text + ',"message":"request_ping"}', 1)],
+                            {"error": "type", "field": "id"}))
+    out.append(line_vec("-0 is the integer 0",
+                        [('{"op":"encode","id":-0,"message":"position_gains","kp":1,"ki":-0,"kd":3,"rated_current":4}', 1)],
+                        {"hex": hexs(encode("position_gains", 0, dict(gains, ki=0)))}))
+    for text in ("9007199254740993", "123456789012345678901234567890", "1" + "0" * 5000, "-" + "9" * 5000):
+        label = text if len(text) < 40 else f"an integer of {len(text.lstrip('-'))} digits{' (negative)' if text[0] == '-' else ''}"
+        out.append(line_vec(f"{label} is out of range (field)",
+                            [('{"op":"encode","id":1,"message":"position_gains","kp":' + text + ',"ki":2,"kd":3,"rated_current":4}', 1)],
+                            {"error": "range", "field": "kp"}))
+        out.append(line_vec(f"{label} is out of range (id)",
+                            [('{"op":"encode","id":' + text + ',"message":"request_ping"}', 1)],
+                            {"error": "range", "field": "id"}))
+
+    # NUL and other characters inside strings: strings compare whole
+    out.append(vec("NUL after a message name", {"op": "encode", "id": 0, "message": "request_ping\u0000"}, {"error": "unknown_message"}))
+    out.append(vec("NUL before a message name", {"op": "encode", "id": 0, "message": "\u0000request_ping"}, {"error": "unknown_message"}))
+    out.append(vec("NUL inside hex (decode)", {"op": "decode", "hex": hexs(ping) + "\u0000"}, {"error": "bad_hex"}))
+    out.append(vec("NUL inside hex (parse)", {"op": "parse", "hex": hexs(ping) + "\u000000"}, {"error": "bad_hex"}))
+    out.append(vec("NUL inside a chunk", {"op": "parse", "chunks": [hexs(ping), "\u0000"]}, {"error": "bad_hex"}))
+    out.append(vec("NUL after the op", {"op": "decode\u0000", "hex": hexs(ping)}, {"error": "unknown_op"}))
+    out.append(vec("NUL in a field name", {"op": "encode", "id": 1, "message": "position_gains", **gains, "kp\u0000": 1},
+                   {"error": "unknown_field", "field": "kp\u0000"}))
+    out.append(vec("NUL alone as a field name", {"op": "encode", "id": 0, "message": "request_ping", "\u0000": 1},
+                   {"error": "unknown_field", "field": "\u0000"}))
+    out.append(vec("a field named __proto__", {"op": "encode", "id": 0, "message": "request_ping", "__proto__": 1},
+                   {"error": "unknown_field", "field": "__proto__"}))
+    out.append(vec("a field named constructor", {"op": "encode", "id": 0, "message": "request_ping", "constructor": 1},
+                   {"error": "unknown_field", "field": "constructor"}))
+    out.append(vec("message named toString", {"op": "encode", "id": 0, "message": "toString"}, {"error": "unknown_message"}))
+    out.append(vec("message named __proto__", {"op": "encode", "id": 0, "message": "__proto__"}, {"error": "unknown_message"}))
+    out.append(vec("op named constructor", {"op": "constructor"}, {"error": "unknown_op"}))
+    out.append(vec("unicode digits are not hex", {"op": "decode", "hex": "\u0661\u0662"}, {"error": "bad_hex"}))
+    out.append(vec("full-width hex digits are not hex", {"op": "decode", "hex": "\uff46\uff46"}, {"error": "bad_hex"}))
+    out.append(vec("hex with a trailing newline escape", {"op": "decode", "hex": hexs(ping) + "\n"}, {"error": "bad_hex"}))
+    out.append(vec("upper-case hex", {"op": "decode", "hex": hexs(ping).upper()}, decoded_ping))
+
+    # requests missing parts
+    out.append(vec("no op", {"hex": hexs(ping)}, {"error": "unknown_op"}))
+    out.append(vec("op not a string", {"op": 1}, {"error": "unknown_op"}))
+    out.append(vec("op null", {"op": None}, {"error": "unknown_op"}))
+    out.append(vec("op in upper case", {"op": "DECODE", "hex": hexs(ping)}, {"error": "unknown_op"}))
+    out.append(vec("decode without hex", {"op": "decode"}, {"error": "bad_hex"}))
+    out.append(vec("decode with hex null", {"op": "decode", "hex": None}, {"error": "bad_hex"}))
+    out.append(vec("decode with hex a number", {"op": "decode", "hex": 12}, {"error": "bad_hex"}))
+    out.append(vec("decode with hex a list", {"op": "decode", "hex": [hexs(ping)]}, {"error": "bad_hex"}))
+    out.append(vec("message a number", {"op": "encode", "id": 0, "message": 160}, {"error": "unknown_message"}))
+    out.append(vec("message null", {"op": "encode", "id": 0, "message": None}, {"error": "unknown_message"}))
+    out.append(vec("id null", {"op": "encode", "id": None, "message": "request_ping"}, {"error": "type", "field": "id"}))
+    out.append(vec("id true", {"op": "encode", "id": True, "message": "request_ping"}, {"error": "type", "field": "id"}))
+    out.append(vec("id a list", {"op": "encode", "id": [1], "message": "request_ping"}, {"error": "type", "field": "id"}))
+    out.append(vec("field an object", {"op": "encode", "id": 1, "message": "position_gains", **dict(gains, kp={"v": 1})},
+                   {"error": "type", "field": "kp"}))
+
+    # chunks forms
+    both = scan(ping + pos_ans)
+    out.append(vec("chunks null: hex is the stream", {"op": "parse", "chunks": None, "hex": hexs(ping)}, scan(ping)))
+    out.append(vec("chunks null and no hex", {"op": "parse", "chunks": None}, {"error": "bad_hex"}))
+    out.append(vec("chunks given: hex is ignored", {"op": "parse", "chunks": [hexs(ping), hexs(pos_ans)], "hex": "zz"}, both))
+    out.append(vec("chunks empty list", {"op": "parse", "chunks": []}, {"frames": [], "dropped_bytes": 0}))
+    out.append(vec("chunks of empty strings", {"op": "parse", "chunks": ["", hexs(ping), ""]}, scan(ping)))
+    out.append(vec("chunks a string", {"op": "parse", "chunks": hexs(ping)}, {"error": "bad_hex"}))
+    out.append(vec("chunks a number", {"op": "parse", "chunks": 3}, {"error": "bad_hex"}))
+    out.append(vec("chunks an object", {"op": "parse", "chunks": {"0": hexs(ping)}}, {"error": "bad_hex"}))
+    out.append(vec("chunks holding null", {"op": "parse", "chunks": [hexs(ping), None]}, {"error": "bad_hex"}))
+    out.append(vec("chunks holding a number", {"op": "parse", "chunks": [12]}, {"error": "bad_hex"}))
+    out.append(vec("chunks holding a list", {"op": "parse", "chunks": [[hexs(ping)]]}, {"error": "bad_hex"}))
+    out.append(vec("chunks holding an odd-length chunk", {"op": "parse", "chunks": [hexs(ping), "f"]}, {"error": "bad_hex"}))
+    out.append(vec("parse with neither hex nor chunks", {"op": "parse"}, {"error": "bad_hex"}))
+
+    # nesting limit
+    def nested(depth: int, *, close: bool = True) -> list[tuple[str, int]]:
+        """A request object of `depth` levels: {"op":"teleport","x":[[...]]}."""
+        inner = depth - 1
+        return [('{"op":"teleport","x":', 1), ("[", inner), ("]" if close else "", inner), ("}" if close else "", 1)]
+
+    out.append(line_vec(f"nesting {MAX_DEPTH} levels (the limit) is answered", nested(MAX_DEPTH), {"error": "unknown_op"}))
+    out.append(line_vec(f"nesting {MAX_DEPTH + 1} levels", nested(MAX_DEPTH + 1), BAD_REQUEST))
+    out.append(line_vec("nesting 1,000 levels", nested(1000), BAD_REQUEST))
+    out.append(line_vec("nesting 100,000 levels", nested(100_000), BAD_REQUEST))
+    out.append(line_vec("nesting 100,000 levels, never closed", nested(100_000, close=False), BAD_REQUEST))
+    out.append(line_vec("100,000 nested arrays", [("[", 100_000), ("]", 100_000)], BAD_REQUEST))
+    out.append(line_vec("100,000 nested objects", [('{"a":', 100_000), ("1", 1), ("}", 100_000)], BAD_REQUEST))
+    out.append(line_vec("nesting 100,000 levels inside chunks", [('{"op":"parse","chunks":', 1), ("[", 100_000), ("]", 100_000), ("}", 1)], BAD_REQUEST))
+
+    # size limit
+    padding = MAX_LINE_BYTES - len(decode_line)
+    out.append(line_vec("a line of exactly 4 MiB is answered", [(decode_line[:-1], 1), (" ", padding), ("}", 1)], decoded_ans))
+    out.append(line_vec("a line of 4 MiB + 1 byte is bad_request", [(decode_line[:-1], 1), (" ", padding + 1), ("}", 1)], BAD_REQUEST))
+    out.append(line_vec("a line of 4 MiB + 1 byte of hex", [('{"op":"parse","hex":"', 1), ("00", MAX_LINE_BYTES // 2), ('"}', 1)], BAD_REQUEST))
+    out.append(line_vec("the line after an overlong line is read as usual", [(decode_line, 1)], decoded_ans))
+    frames = 130_000
+    expect = scan(ping * 3)
+    assert expect == {"frames": [decoded_ping] * 3, "dropped_bytes": 0}
+    many = {"frames": [{"$repeat": decoded_ping, "times": frames}], "dropped_bytes": 0}
+    out.append(line_vec(f"parse {frames:,} frames in one hex string", [('{"op":"parse","hex":"', 1), (hexs(ping), frames), ('"}', 1)], many))
+    out.append(line_vec(f"parse {frames:,} frames in {frames:,} chunks",
+                        [('{"op":"parse","chunks":["', 1), (hexs(ping) + '","', frames - 1), (hexs(ping) + '"]}', 1)], many))
+    noisy = {"frames": [{"$repeat": decoded_ans, "times": 20_000}], "dropped_bytes": 3 * 20_000}
+    assert scan((b"\xff\xfe\x00" + pos_ans) * 3) == {"frames": [decoded_ans] * 3, "dropped_bytes": 9}
+    out.append(line_vec("parse 20,000 frames each after a false header", [('{"op":"parse","hex":"', 1), ("fffe00" + hexs(pos_ans), 20_000), ('"}', 1)], noisy))
+    return out
+
+
 SETS = {
     "examples": example_vectors,
     "errata": errata_vectors,
     "messages": message_vectors,
     "broken": broken_vectors,
     "streams": stream_vectors,
+    "edges": edge_vectors,
 }
 
 

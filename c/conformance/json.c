@@ -74,8 +74,9 @@ static char *put_utf8(char *w, unsigned cp) {
     return w;
 }
 
-/* Unescape the string at r->at (after the opening quote) in place; returns its start. */
-static char *read_string(reader *r) {
+/* Unescape the string at r->at (after the opening quote) in place; returns its start and
+ * sets *length (a \u0000 is kept, so the length is not strlen). */
+static char *read_string(reader *r, size_t *length) {
     char *start = r->at, *w = r->at;
     for (;;) {
         char c = *r->at;
@@ -100,8 +101,12 @@ static char *read_string(reader *r) {
             unsigned cp, low;
             if (read_hex4(r->at, &cp) != 0) return NULL;
             r->at += 4;
-            if (cp >= 0xD800 && cp < 0xDC00 && r->at[0] == '\\' && r->at[1] == 'u' &&
-                read_hex4(r->at + 2, &low) == 0 && low >= 0xDC00 && low < 0xE000) {
+            if (cp >= 0xDC00 && cp < 0xE000) return NULL; /* a lone low surrogate */
+            if (cp >= 0xD800 && cp < 0xDC00) {
+                if (!(r->at[0] == '\\' && r->at[1] == 'u' && read_hex4(r->at + 2, &low) == 0 && low >= 0xDC00 &&
+                      low < 0xE000)) {
+                    return NULL; /* a lone high surrogate */
+                }
                 cp = 0x10000 + ((cp - 0xD800) << 10) + (low - 0xDC00);
                 r->at += 6;
             }
@@ -112,6 +117,7 @@ static char *read_string(reader *r) {
         }
     }
     *w = '\0'; /* w < r->at here: the closing quote's place is free at least */
+    *length = (size_t)(w - start);
     return start;
 }
 
@@ -173,7 +179,7 @@ static int read_container(reader *r, int is_object) {
     char close = is_object ? '}' : ']';
     int node = new_node(r, is_object ? JSON_OBJECT : JSON_ARRAY), last = -1;
     if (node < 0) return fail(r, "out of memory");
-    if (++r->depth > 64) return fail(r, "nested too deep");
+    if (++r->depth > JSON_MAX_DEPTH) return fail(r, "nested too deep");
     r->at++;
     skip_space(r);
     if (*r->at == close) {
@@ -183,12 +189,13 @@ static int read_container(reader *r, int is_object) {
     }
     for (;;) {
         const char *key = NULL;
+        size_t key_length = 0;
         int child;
         skip_space(r);
         if (is_object) {
             if (*r->at != '"') return fail(r, "expected a member name");
             r->at++;
-            key = read_string(r);
+            key = read_string(r, &key_length);
             if (key == NULL) return fail(r, "bad string");
             skip_space(r);
             if (*r->at != ':') return fail(r, "expected ':'");
@@ -197,6 +204,7 @@ static int read_container(reader *r, int is_object) {
         child = read_value(r);
         if (child < 0) return -1;
         r->doc->nodes[child].key = key;
+        r->doc->nodes[child].key_length = key_length;
         if (last < 0) {
             r->doc->nodes[node].first_child = child;
         } else {
@@ -225,12 +233,14 @@ static int read_value(reader *r) {
     case '"': {
         int node;
         char *text;
+        size_t length = 0;
         r->at++;
-        text = read_string(r);
+        text = read_string(r, &length);
         if (text == NULL) return fail(r, "bad string");
         node = new_node(r, JSON_STRING);
         if (node < 0) return fail(r, "out of memory");
         r->doc->nodes[node].text = text;
+        r->doc->nodes[node].length = length;
         return node;
     }
     case 't': return read_literal(r, "true", JSON_BOOL, 1);
@@ -261,9 +271,16 @@ void json_free(json_doc *doc) {
 
 int json_member(const json_doc *doc, int object, const char *key) {
     int child, found = -1;
+    size_t n = strlen(key);
     if (object < 0 || doc->nodes[object].type != JSON_OBJECT) return -1;
     for (child = doc->nodes[object].first_child; child >= 0; child = doc->nodes[child].next_sibling) {
-        if (strcmp(doc->nodes[child].key, key) == 0) found = child;
+        if (doc->nodes[child].key_length == n && memcmp(doc->nodes[child].key, key, n) == 0) found = child;
     }
     return found;
+}
+
+int json_string_is(const json_doc *doc, int node, const char *word) {
+    size_t n = strlen(word);
+    return node >= 0 && doc->nodes[node].type == JSON_STRING && doc->nodes[node].length == n &&
+           memcmp(doc->nodes[node].text, word, n) == 0;
 }

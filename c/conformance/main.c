@@ -28,10 +28,12 @@ static void put(output *out, const char *text) {
     out->length += n;
 }
 
-static void put_string(output *out, const char *text) {
+/* A JSON string of `length` bytes of UTF-8 (a NUL inside is written as \u0000). */
+static void put_string_n(output *out, const char *text, size_t length) {
     char one[8];
+    const char *end = text + length;
     put(out, "\"");
-    for (; *text; text++) {
+    for (; text < end; text++) {
         unsigned char c = (unsigned char)*text;
         if (c == '"' || c == '\\') {
             one[0] = '\\';
@@ -47,6 +49,8 @@ static void put_string(output *out, const char *text) {
     }
     put(out, "\"");
 }
+
+static void put_string(output *out, const char *text) { put_string_n(out, text, strlen(text)); }
 
 static int put_error(output *out, const char *kind, const char *field) {
     put(out, "{\"error\":");
@@ -91,7 +95,7 @@ static uint8_t *hex_bytes(const json_doc *doc, int node, size_t *length) {
     uint8_t *bytes;
     if (node < 0 || doc->nodes[node].type != JSON_STRING) return NULL;
     text = doc->nodes[node].text;
-    n = strlen(text);
+    n = doc->nodes[node].length; /* a NUL inside is no hex digit: the loop below refuses it */
     if (n % 2 != 0) return NULL;
     bytes = malloc(n / 2 + 1);
     if (bytes == NULL) return NULL;
@@ -143,6 +147,10 @@ static int op_encode(output *out, const json_doc *doc) {
     if (message_node < 0) return put_error(out, "missing_field", "message");
     if (id_node < 0) return put_error(out, "missing_field", "id");
     if (doc->nodes[message_node].type != JSON_STRING) return put_error(out, "unknown_message", NULL);
+    /* A name with a NUL inside is no message name (the library sees C strings). */
+    if (strlen(doc->nodes[message_node].text) != doc->nodes[message_node].length) {
+        return put_error(out, "unknown_message", NULL);
+    }
     type = nurimc_type_by_name(doc->nodes[message_node].text);
     spec = nurimc_spec(type);
     if (spec == NULL) return put_error(out, "unknown_message", NULL);
@@ -151,8 +159,17 @@ static int op_encode(output *out, const json_doc *doc) {
     }
     for (child = doc->nodes[0].first_child; child >= 0; child = doc->nodes[child].next_sibling) {
         const char *key = doc->nodes[child].key;
-        if (strcmp(key, "op") == 0 || strcmp(key, "id") == 0 || strcmp(key, "message") == 0) continue;
-        if (nurimc_field_index(type, key) < 0) return put_error(out, "unknown_field", key);
+        size_t key_length = doc->nodes[child].key_length;
+        if (strlen(key) == key_length &&
+            (strcmp(key, "op") == 0 || strcmp(key, "id") == 0 || strcmp(key, "message") == 0)) {
+            continue;
+        }
+        if (strlen(key) != key_length || nurimc_field_index(type, key) < 0) {
+            put(out, "{\"error\":\"unknown_field\",\"field\":");
+            put_string_n(out, key, key_length);
+            put(out, "}");
+            return 0;
+        }
     }
     /* Type and range are checked field by field in wire order, the ID first. */
     if (!is_integer(doc, id_node)) return put_error(out, "type", "id");
@@ -234,11 +251,57 @@ static int op_parse(output *out, const json_doc *doc) {
     return 0;
 }
 
-static void answer(output *out, char *line) {
+/* 1 if s[0..n) is UTF-8 as RFC 3629 has it: no overlong forms, no surrogates, at most U+10FFFF. */
+static int is_utf8(const unsigned char *s, size_t n) {
+    size_t i = 0;
+    while (i < n) {
+        unsigned c = s[i], need, min, cp, k;
+        if (c < 0x80) {
+            i++;
+            continue;
+        }
+        if (c >= 0xC2 && c <= 0xDF) {
+            need = 1, min = 0x80, cp = c & 0x1F;
+        } else if (c >= 0xE0 && c <= 0xEF) {
+            need = 2, min = 0x800, cp = c & 0x0F;
+        } else if (c >= 0xF0 && c <= 0xF4) {
+            need = 3, min = 0x10000, cp = c & 0x07;
+        } else {
+            return 0;
+        }
+        if (n - i <= need) return 0;
+        for (k = 1; k <= need; k++) {
+            if ((s[i + k] & 0xC0) != 0x80) return 0;
+            cp = (cp << 6) | (s[i + k] & 0x3F);
+        }
+        if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
+        i += need + 1;
+    }
+    return 1;
+}
+
+static void bad_request(output *out, const char *detail) {
+    put(out, "{\"error\":\"bad_request\",\"detail\":");
+    put_string(out, detail);
+    put(out, "}");
+}
+
+/* The answer to one line of `n` bytes (without its newline; line[n] is a NUL the reader adds). */
+static void answer(output *out, char *line, size_t n) {
     json_doc doc;
     int op;
+    size_t i, blank = 1;
+    for (i = 0; i < n; i++) {
+        if (line[i] != ' ' && line[i] != '\t' && line[i] != '\r') blank = 0;
+    }
     memset(&doc, 0, sizeof doc);
-    if (json_parse(&doc, line) != 0) {
+    if (blank) {
+        bad_request(out, "empty line");
+    } else if (memchr(line, '\0', n) != NULL) {
+        bad_request(out, "a NUL byte is never JSON");
+    } else if (!is_utf8((const unsigned char *)line, n)) {
+        bad_request(out, "not UTF-8");
+    } else if (json_parse(&doc, line) != 0) {
         put(out, "{\"error\":\"bad_request\",\"detail\":");
         put_string(out, doc.error[0] ? doc.error : "not JSON");
         put(out, "}");
@@ -246,11 +309,11 @@ static void answer(output *out, char *line) {
         put(out, "{\"error\":\"bad_request\",\"detail\":\"each line must be a JSON object\"}");
     } else {
         op = json_member(&doc, 0, "op");
-        if (op >= 0 && doc.nodes[op].type == JSON_STRING && strcmp(doc.nodes[op].text, "decode") == 0) {
+        if (json_string_is(&doc, op, "decode")) {
             op_decode(out, &doc);
-        } else if (op >= 0 && doc.nodes[op].type == JSON_STRING && strcmp(doc.nodes[op].text, "encode") == 0) {
+        } else if (json_string_is(&doc, op, "encode")) {
             op_encode(out, &doc);
-        } else if (op >= 0 && doc.nodes[op].type == JSON_STRING && strcmp(doc.nodes[op].text, "parse") == 0) {
+        } else if (json_string_is(&doc, op, "parse")) {
             op_parse(out, &doc);
         } else {
             put_error(out, "unknown_op", NULL);
@@ -259,22 +322,59 @@ static void answer(output *out, char *line) {
     json_free(&doc);
 }
 
+/* Reads one line (LF ends it; a last unterminated line counts) into *line, at most
+ * MAX_LINE_BYTES kept: a longer line is read past and *overlong set. Returns 0 at end of input. */
+#define MAX_LINE_BYTES (4u * 1024u * 1024u)
+
+static int read_line(char **line, size_t *capacity, size_t *length, int *overlong) {
+    int c, any = 0;
+    size_t n = 0;
+    *overlong = 0;
+    while ((c = getchar()) != EOF) {
+        any = 1;
+        if (c == '\n') break;
+        if (n == MAX_LINE_BYTES) {
+            *overlong = 1;
+            continue;
+        }
+        if (n + 1 >= *capacity) {
+            size_t grown_capacity = *capacity ? *capacity * 2 : 4096;
+            char *grown = realloc(*line, grown_capacity);
+            if (grown == NULL) {
+                fputs("conformance: out of memory\n", stderr);
+                exit(1);
+            }
+            *line = grown;
+            *capacity = grown_capacity;
+        }
+        (*line)[n++] = (char)c;
+    }
+    if (!any) return 0;
+    if (*line == NULL) {
+        *line = malloc(1);
+        if (*line == NULL) exit(1);
+        *capacity = 1;
+    }
+    (*line)[n] = '\0';
+    *length = n;
+    return 1;
+}
+
 int main(void) {
     char *line = NULL;
-    size_t capacity = 0;
-    ssize_t n;
+    size_t capacity = 0, length = 0;
+    int overlong = 0;
     output out = {NULL, 0, 0};
-    while ((n = getline(&line, &capacity, stdin)) >= 0) {
-        size_t i, blank = 1;
-        for (i = 0; i < (size_t)n; i++) {
-            if (line[i] != ' ' && line[i] != '\t' && line[i] != '\n' && line[i] != '\r') blank = 0;
-        }
-        if (blank) continue;
+    while (read_line(&line, &capacity, &length, &overlong)) {
         out.length = 0;
         put(&out, "");
-        answer(&out, line);
+        if (overlong) {
+            bad_request(&out, "line longer than 4194304 bytes");
+        } else {
+            answer(&out, line, length);
+        }
         put(&out, "\n");
-        fputs(out.text, stdout);
+        fwrite(out.text, 1, out.length, stdout);
         fflush(stdout);
     }
     free(line);

@@ -13,6 +13,7 @@
 
 #include "check.h"
 #include "nurimc_posix.h"
+#include "nurimc_settings.h"
 
 static int open_master(char *slave_path, size_t size) {
     int master = posix_openpt(O_RDWR | O_NOCTTY);
@@ -185,11 +186,169 @@ static void test_timeout_and_misuse(void) {
     close(master);
 }
 
+/* Drain what the host wrote to the master side (so the pty never fills). */
+static void drain(int master) {
+    uint8_t junk[256];
+    struct pollfd pfd;
+    pfd.fd = master;
+    pfd.events = POLLIN;
+    while (poll(&pfd, 1, 0) > 0 && read(master, junk, sizeof junk) > 0) {
+    }
+}
+
+static nurimc_message gains(uint8_t id) {
+    nurimc_message msg = nurimc_message_init(NURIMC_MSG_SET_POSITION_GAINS, id);
+    msg.u.set_position_gains.kp = 10;
+    msg.u.set_position_gains.rated_current = 30;
+    return msg;
+}
+
+static void test_busy_rule_from_spec(void) {
+    CHECK(nurimc_writes_eeprom(NURIMC_MSG_SET_CONTROL));
+    CHECK(nurimc_writes_eeprom(NURIMC_MSG_SET_ID));
+    CHECK(nurimc_writes_eeprom(NURIMC_MSG_FACTORY_RESET));
+    CHECK(!nurimc_writes_eeprom(NURIMC_MSG_POSITION_SPEED));
+    CHECK(!nurimc_writes_eeprom(NURIMC_MSG_RESET_POSITION));
+    CHECK(!nurimc_writes_eeprom(NURIMC_MSG_REQUEST_PING));
+    CHECK_EQ(nurimc_profile_busy_window_us(NURIMC_PROFILE_MC), 300000);
+    CHECK_EQ(nurimc_profile_by_name("blmc-h"), NURIMC_PROFILE_BLMC_H);
+    CHECK_EQ(nurimc_profile_by_name("warp"), -1);
+    CHECK_EQ(NURIMC_DEFAULT_ADAPTER_LATENCY_US, 2000); /* spec/host.json, as Python and TypeScript */
+}
+
+static void test_busy_windows_configurable(void) {
+    char path[128];
+    int master = open_master(path, sizeof path);
+    nurimc_bus bus;
+    CHECK_EQ(nurimc_bus_open(&bus, path, 115200), NURIMC_OK);
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 4), 300000); /* profile mc */
+    CHECK_EQ(nurimc_bus_set_product(&bus, 4, NURIMC_PROFILE_BLMC_H), NURIMC_OK);
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 4), nurimc_profile_busy_window_us(NURIMC_PROFILE_BLMC_H));
+    CHECK_EQ(nurimc_bus_set_product(&bus, 255, NURIMC_PROFILE_MC), NURIMC_E_ARGUMENT);
+    CHECK_EQ(nurimc_bus_set_product(&bus, 1, NURIMC_PROFILE_COUNT), NURIMC_E_ARGUMENT);
+    bus.busy_window_us = 120000;
+    bus.busy_windows_us[4] = 80000;
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 4), 80000); /* per ID first */
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 5), 120000); /* then the bus */
+    bus.busy_windows_us[9] = 200000;
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, NURIMC_BROADCAST_ID), 200000); /* broadcast: the largest */
+    bus.busy_windows_us[9] = 0;
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 9), 0);
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, NURIMC_BROADCAST_ID), 120000);
+    nurimc_bus_close(&bus);
+    close(master);
+}
+
+static void test_busy_window_holds_frames(void) {
+    char path[128];
+    int master = open_master(path, sizeof path);
+    nurimc_bus bus;
+    nurimc_message motion = nurimc_message_init(NURIMC_MSG_POSITION_SPEED, 1), set_id, reset;
+    uint64_t start, now;
+    motion.u.position_speed.speed = 10;
+    CHECK_EQ(nurimc_bus_open(&bus, path, 1000000), NURIMC_OK);
+    bus.busy_window_us = 40000;
+    /* motion never makes an ID busy */
+    CHECK_EQ(nurimc_bus_send(&bus, &motion, NULL), NURIMC_OK);
+    CHECK_EQ(nurimc_bus_busy_until_us(&bus, 1), 0);
+    /* a settings write holds the next frame to that ID until its window ended ... */
+    start = now_us();
+    {
+        nurimc_message g = gains(1);
+        CHECK_EQ(nurimc_bus_send(&bus, &g, NULL), NURIMC_OK);
+    }
+    CHECK(nurimc_bus_busy_until_us(&bus, 1) >= start + 40000u);
+    CHECK_EQ(nurimc_bus_busy_until_us(&bus, 2), 0);
+    /* ... but not frames to other IDs */
+    motion.id = 2;
+    CHECK_EQ(nurimc_bus_send(&bus, &motion, NULL), NURIMC_OK);
+    CHECK_EQ(bus.busy_waits, 0);
+    motion.id = 1;
+    CHECK_EQ(nurimc_bus_send(&bus, &motion, NULL), NURIMC_OK);
+    now = now_us();
+    CHECK(now - start >= 40000u);
+    CHECK_EQ(bus.busy_waits, 1);
+    /* set_id: the old and the new ID; factory_reset: ID 0 too */
+    set_id = nurimc_message_init(NURIMC_MSG_SET_ID, 5);
+    set_id.u.set_id.new_id = 6;
+    reset = nurimc_message_init(NURIMC_MSG_FACTORY_RESET, 7);
+    CHECK_EQ(nurimc_bus_send(&bus, &set_id, NULL), NURIMC_OK);
+    CHECK_EQ(nurimc_bus_send(&bus, &reset, NULL), NURIMC_OK);
+    now = now_us();
+    CHECK(nurimc_bus_busy_until_us(&bus, 5) > now + 30000u);
+    CHECK(nurimc_bus_busy_until_us(&bus, 6) > now + 30000u);
+    CHECK(nurimc_bus_busy_until_us(&bus, 7) > now + 30000u);
+    CHECK(nurimc_bus_busy_until_us(&bus, 0) > now + 30000u);
+    CHECK_EQ(nurimc_bus_busy_until_us(&bus, 8), 0);
+    /* a broadcast frame waits for every ID; a broadcast write makes every ID busy */
+    {
+        nurimc_message all = nurimc_message_init(NURIMC_MSG_SET_CONTROL, NURIMC_BROADCAST_ID);
+        uint64_t until = nurimc_bus_busy_until_us(&bus, NURIMC_BROADCAST_ID);
+        CHECK_EQ(nurimc_bus_send(&bus, &all, NULL), NURIMC_OK);
+        CHECK(now_us() >= until);
+        CHECK(nurimc_bus_busy_until_us(&bus, 200) >= until + 40000u);
+    }
+    drain(master);
+    nurimc_bus_close(&bus);
+    close(master);
+}
+
+static void test_silence_after_a_write_is_busy(void) {
+    char path[128];
+    int master = open_master(path, sizeof path);
+    nurimc_bus bus;
+    nurimc_message answer, ratio = nurimc_message_init(NURIMC_MSG_SET_RATIO, 3);
+    ratio.u.set_ratio.ratio = 10;
+    CHECK_EQ(nurimc_bus_open(&bus, path, 1000000), NURIMC_OK);
+    bus.busy_window_us = 30000;
+    bus.retries = 0;
+    bus.response_time_us = 100;
+    CHECK_EQ(nurimc_bus_send(&bus, &ratio, NULL), NURIMC_OK);
+    CHECK_EQ(nurimc_bus_query(&bus, NURIMC_MSG_REQUEST_PING, 3, &answer), NURIMC_E_TIMEOUT);
+    CHECK_EQ(bus.timeout_was_busy, 1); /* busy writing its settings, not missing */
+    CHECK_EQ(nurimc_bus_query(&bus, NURIMC_MSG_REQUEST_PING, 4, &answer), NURIMC_E_TIMEOUT);
+    CHECK_EQ(bus.timeout_was_busy, 0); /* never written to: silence is silence */
+    drain(master);
+    nurimc_bus_close(&bus);
+    close(master);
+}
+
+static void test_settings_map(void) {
+    size_t count = 0;
+    const nurimc_setting *all = nurimc_settings(&count), *ratio = nurimc_setting_by_name("ratio");
+    const nurimc_setting *kp = nurimc_setting_by_name("position-kp"), *firmware = nurimc_setting_by_name("firmware");
+    CHECK_EQ(count, NURIMC_SETTING_COUNT);
+    CHECK(all != NULL && count >= 16);
+    CHECK(ratio != NULL && kp != NULL && firmware != NULL);
+    CHECK(nurimc_setting_by_name("warp") == NULL);
+    if (ratio == NULL || kp == NULL || firmware == NULL) return;
+    CHECK_EQ(ratio->command, NURIMC_MSG_SET_RATIO);
+    CHECK_EQ(ratio->request, NURIMC_MSG_REQUEST_RATIO);
+    CHECK_EQ(ratio->scale_num, 1);
+    CHECK_EQ(ratio->scale_den, 10);
+    CHECK_EQ(ratio->input, NURIMC_INPUT_QUANTIZE);
+    CHECK_EQ(kp->command, NURIMC_MSG_SET_POSITION_GAINS);
+    CHECK_EQ(kp->answer, NURIMC_MSG_POSITION_GAINS);
+    CHECK_EQ(kp->min, 1);
+    CHECK_EQ(kp->input, NURIMC_INPUT_INTEGER);
+    CHECK_EQ(firmware->command, -1); /* read-only */
+    /* every setting's field exists in its answer (and command) */
+    for (; count > 0; count--, all++) {
+        CHECK(nurimc_field_index(all->answer, all->field) >= 0);
+        CHECK(all->command < 0 || nurimc_field_index((nurimc_message_type)all->command, all->field) >= 0);
+    }
+}
+
 int main(void) {
     test_every_rate();
     test_open_errors();
     test_timeout_formula();
     test_request_answer();
     test_timeout_and_misuse();
+    test_busy_rule_from_spec();
+    test_busy_windows_configurable();
+    test_busy_window_holds_frames();
+    test_silence_after_a_write_is_busy();
+    test_settings_map();
     return check_report("test_posix");
 }

@@ -1,8 +1,10 @@
 /** The JSON-lines conformance program (conformance/README.md): one answer line per input line. */
-import { createInterface } from "node:readline";
-import { decode, encode, make, toRecord, type Message } from "./codec.js";
+import { realpathSync } from "node:fs";
+import { pathToFileURL } from "node:url";
+import { decode, encode, make, toRecord } from "./codec.js";
 import { DecodeError, EncodeError } from "./errors.js";
 import { fromHex } from "./frame.js";
+import { BadRequest, MAX_LINE_BYTES, readRequest, type JsonValue } from "./jsonline.js";
 import { StreamParser } from "./parser.js";
 
 type Reply = Record<string, unknown>;
@@ -18,14 +20,21 @@ function bytes(text: unknown): Uint8Array {
   }
 }
 
+const own = (object: Record<string, unknown>, key: string): unknown =>
+  Object.prototype.hasOwnProperty.call(object, key) ? object[key] : undefined;
+
 function parse(request: Record<string, unknown>): Reply {
+  const chunks = own(request, "chunks");
+  let pieces: Uint8Array[];
+  if (chunks === undefined || chunks === null) pieces = [bytes(own(request, "hex"))];
+  else if (Array.isArray(chunks)) pieces = chunks.map(bytes);
+  else throw new BadHex();
   const parser = new StreamParser();
-  const frames: Message[] = [];
-  const chunks = request["chunks"];
-  if (chunks === undefined) frames.push(...parser.feed(bytes(request["hex"])));
-  else for (const chunk of Array.isArray(chunks) ? (chunks as unknown[]) : [null]) frames.push(...parser.feed(bytes(chunk)));
-  frames.push(...parser.finish());
-  return { frames: frames.map(toRecord), dropped_bytes: parser.stats.droppedBytes };
+  const frames: Reply[] = [];
+  // One push per frame: spreading 100,000 frames into push() overflows the call stack.
+  for (const piece of pieces) for (const message of parser.feed(piece)) frames.push(toRecord(message));
+  for (const message of parser.finish()) frames.push(toRecord(message));
+  return { frames, dropped_bytes: parser.stats.droppedBytes };
 }
 
 export function answer(request: unknown): Reply {
@@ -34,14 +43,16 @@ export function answer(request: unknown): Reply {
   }
   const req = request as Record<string, unknown>;
   try {
-    switch (req["op"]) {
+    switch (own(req, "op")) {
       case "decode":
-        return toRecord(decode(bytes(req["hex"])));
+        return toRecord(decode(bytes(own(req, "hex"))));
       case "encode": {
-        for (const key of ["message", "id"]) if (!(key in req)) return { error: "missing_field", field: key };
-        if (typeof req["message"] !== "string") return { error: "unknown_message" };
-        const { op: _op, id, message, ...fields } = req;
-        return { hex: Buffer.from(encode(make(message as string, id, fields))).toString("hex") };
+        for (const key of ["message", "id"]) if (own(req, key) === undefined) return { error: "missing_field", field: key };
+        const message = own(req, "message");
+        if (typeof message !== "string") return { error: "unknown_message" };
+        const fields = Object.create(null) as Record<string, unknown>;
+        for (const key of Object.keys(req)) if (key !== "op" && key !== "id" && key !== "message") fields[key] = req[key];
+        return { hex: Buffer.from(encode(make(message, own(req, "id"), fields))).toString("hex") };
       }
       case "parse":
         return parse(req);
@@ -56,20 +67,85 @@ export function answer(request: unknown): Reply {
   }
 }
 
-function serve(): void {
-  const lines = createInterface({ input: process.stdin, crlfDelay: Infinity });
-  lines.on("line", (line) => {
-    if (line.trim() === "") return;
-    let request: unknown;
-    try {
-      request = JSON.parse(line);
-    } catch (err) {
-      process.stdout.write(JSON.stringify({ error: "bad_request", detail: `not JSON: ${String(err)}` }) + "\n");
-      return;
-    }
-    const reply: Reply = answer(request);
-    process.stdout.write(JSON.stringify(reply) + "\n");
-  });
+/** The answer to one input line (its bytes without the newline). */
+export function answerLine(line: Uint8Array): Reply {
+  let request: JsonValue;
+  try {
+    request = readRequest(line);
+  } catch (err) {
+    if (err instanceof BadRequest) return { error: "bad_request", detail: err.message };
+    throw err;
+  }
+  return answer(request);
 }
 
-serve();
+/**
+ * Splits a byte stream into lines: only LF ends a line, a last unterminated line counts,
+ * and a line longer than MAX_LINE_BYTES is read past without being kept (it comes out as null).
+ */
+export class LineSplitter {
+  private parts: Uint8Array[] = [];
+  private length = 0;
+  private overlong = false;
+
+  constructor(private readonly emit: (line: Uint8Array | null) => void) {}
+
+  push(chunk: Uint8Array): void {
+    let start = 0;
+    for (;;) {
+      const end = chunk.indexOf(0x0a, start);
+      const piece = chunk.subarray(start, end < 0 ? chunk.length : end);
+      this.add(piece);
+      if (end < 0) return;
+      this.flush();
+      start = end + 1;
+    }
+  }
+
+  end(): void {
+    if (this.length > 0 || this.overlong) this.flush();
+  }
+
+  private add(piece: Uint8Array): void {
+    if (this.overlong || piece.length === 0) return;
+    if (this.length + piece.length > MAX_LINE_BYTES) {
+      this.overlong = true;
+      this.parts = [];
+      this.length = 0;
+      return;
+    }
+    this.parts.push(piece.slice());
+    this.length += piece.length;
+  }
+
+  private flush(): void {
+    if (this.overlong) {
+      this.emit(null);
+    } else {
+      const line = new Uint8Array(this.length);
+      let at = 0;
+      for (const part of this.parts) {
+        line.set(part, at);
+        at += part.length;
+      }
+      this.emit(line);
+    }
+    this.parts = [];
+    this.length = 0;
+    this.overlong = false;
+  }
+}
+
+function serve(): void {
+  const splitter = new LineSplitter((line) => {
+    const reply: Reply =
+      line === null ? { error: "bad_request", detail: `line longer than ${MAX_LINE_BYTES} bytes` } : answerLine(line);
+    process.stdout.write(JSON.stringify(reply) + "\n");
+  });
+  process.stdin.on("data", (chunk: Buffer) => splitter.push(chunk));
+  process.stdin.on("end", () => splitter.end());
+}
+
+// Serve only when run as the program, not when a test imports the functions above.
+const entry = process.argv[1];
+if (entry !== undefined && import.meta.url === pathToFileURL(realpathSync(entry)).href) serve();

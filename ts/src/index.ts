@@ -7,6 +7,7 @@ export * from "./errors.js";
 export { buildFrame, checksum, fromHex, toHex } from "./frame.js";
 export * from "./generated/messages.js";
 export * from "./generated/tables.js";
+export * from "./generated/host.js";
 export * from "./parser.js";
 export type * from "./schema.js";
 export * as units from "./units.js";

@@ -87,9 +87,9 @@ describe("bus client", () => {
   it("sends commands once without waiting, and never repeats one (a relative move must not run twice)", async () => {
     const port = new FakePort(() => null);
     const bus = new Bus(port, { timing: { latencyMs: 600_000 } }); // waiting for an answer would time the test out
-    await bus.send(make("set_position_mode", 1, { position_mode: 1 }));
+    await bus.send(make("set_position_mode", 2, { position_mode: 1 })); // an EEPROM write: ID 2 is busy (busy.test.ts), ID 1 is not
     await bus.send(make("position_speed", 1, { direction: 0, position: 9000, speed: 100 }));
-    expect(port.writes.map(toHex)).toEqual([toHex(encode(make("set_position_mode", 1, { position_mode: 1 }))), "fffe010747010023280064"]);
+    expect(port.writes.map(toHex)).toEqual([toHex(encode(make("set_position_mode", 2, { position_mode: 1 }))), "fffe010747010023280064"]);
     expect(bus.stats.commands).toBe(2);
   });
 

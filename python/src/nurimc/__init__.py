@@ -1,37 +1,52 @@
 """nurimc: toolkit for Nurirobot MC and BLMC-H motor controllers (MC-RS485 V1.0.1).
 
 from nurimc import Bus
-with Bus.open("sim://?ids=1", baudrate=9600) as bus:
+with Bus.open("sim://?ids=1,2", baudrate=9600) as bus:
     motor = bus.motor(1)
     motor.move_to(90, rpm=60)
     print(motor.read_state())
+
+The top level imports lazily: `import nurimc.protocol` (the sans-I/O core) needs no
+third-party package; the bus client (pyserial) loads on first use of a name below.
 """
 
-from .client.aio import AsyncBus, AsyncMotor
-from .client.sync import Bus
-from .errors import (
-    ConfirmationRequired,
-    CorruptedAnswer,
-    IdInUse,
-    NoAnswer,
-    NurimcError,
-    PortError,
-    SettingNotApplied,
-    UnexpectedAnswer,
-)
-from .group import Group
-from .motor import Motor, MotorState
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
+
+# name -> module that defines it (relative to this package)
+_LAZY = {
+    "AsyncBus": ".client.aio",
+    "AsyncMotor": ".client.aio",
+    "Bus": ".client.sync",
+    "Group": ".group",
+    "Motor": ".motor",
+    "MotorState": ".motor",
+    "ConfirmationRequired": ".errors",
+    "ControllerBusy": ".errors",
+    "CorruptedAnswer": ".errors",
+    "IdInUse": ".errors",
+    "InputError": ".errors",
+    "NoAnswer": ".errors",
+    "NurimcError": ".errors",
+    "PortError": ".errors",
+    "SettingNotApplied": ".errors",
+    "UnexpectedAnswer": ".errors",
+}
 
 __all__ = [
     "AsyncBus",
     "AsyncMotor",
     "Bus",
     "ConfirmationRequired",
+    "ControllerBusy",
     "CorruptedAnswer",
     "Group",
     "IdInUse",
+    "InputError",
     "Motor",
     "MotorState",
     "NoAnswer",
@@ -40,3 +55,34 @@ __all__ = [
     "SettingNotApplied",
     "UnexpectedAnswer",
 ]
+
+if TYPE_CHECKING:
+    from .client.aio import AsyncBus, AsyncMotor
+    from .client.sync import Bus
+    from .errors import (
+        ConfirmationRequired,
+        ControllerBusy,
+        CorruptedAnswer,
+        IdInUse,
+        InputError,
+        NoAnswer,
+        NurimcError,
+        PortError,
+        SettingNotApplied,
+        UnexpectedAnswer,
+    )
+    from .group import Group
+    from .motor import Motor, MotorState
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nurimc' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])

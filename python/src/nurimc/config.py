@@ -7,15 +7,15 @@ back (or, for ID and baud, by pinging at the new address) before it is reported 
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from . import backup as backup_file
 from .client.actions import Procedure, Wait
 from .client.core import BusCore
-from .errors import ConfirmationRequired, IdInUse, NoAnswer, SettingNotApplied, UnexpectedAnswer
+from .errors import ConfirmationRequired, IdInUse, InputError, NoAnswer, SettingNotApplied, UnexpectedAnswer
 from .motor import EEPROM_SETTLE, VERIFY_WINDOW, MotorProcedures
 from .protocol import (
     BAUD_RATES,
@@ -30,7 +30,7 @@ from .protocol import (
 )
 from .settings import SETTINGS
 
-BACKUP_FORMAT = "nurimc-backup/1"
+BACKUP_FORMAT = backup_file.FORMAT
 
 
 def answers(core: BusCore, device_id: int, window: float = 0.0) -> Procedure[bool]:
@@ -52,7 +52,7 @@ def answers(core: BusCore, device_id: int, window: float = 0.0) -> Procedure[boo
 def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
     """Give controller `old` the ID `new`; refused if `new` already answers."""
     if not 0 <= new <= 254:
-        raise ValueError(f"new ID {new} is out of range 0..254")
+        raise InputError(f"new ID {new} is out of range 0..254")
     if old == new:
         return
     if (yield from answers(core, new)):
@@ -77,7 +77,10 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
     Returns the rate the controller answers at (= rate on success). Raises SettingNotApplied
     if it stayed at the old rate or turned up elsewhere (the bus is then left at that rate).
     """
-    index = baud_index(rate)
+    try:
+        index = baud_index(rate)
+    except ValueError as err:
+        raise InputError(str(err)) from None
     old = core.baudrate
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
@@ -138,9 +141,10 @@ def backup(motors: Sequence[MotorProcedures]) -> Procedure[dict[str, Any]]:
 
 
 def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Procedure[list[str]]:
-    """Write back every setting that differs (each verified); returns what was changed."""
-    if document.get("format") != BACKUP_FORMAT:
-        raise ValueError(f"not a nurimc backup (format {document.get('format')!r}, expected {BACKUP_FORMAT!r})")
+    """Write back every setting that differs (each verified); returns what was changed.
+    The document is checked whole first (BackupError naming the motor and field): nothing is
+    written from a backup that is not one we wrote."""
+    document = backup_file.check(document)
     by_id = {m.id: m for m in motors}
     changed: list[str] = []
     for entry in document["motors"]:
@@ -158,15 +162,17 @@ def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Proc
 
 
 def save_backup(document: dict[str, Any], path: str | Path) -> None:
-    Path(path).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    """Check the document and write it atomically (nurimc.backup)."""
+    backup_file.save(document, path)
 
 
 def load_backup(path: str | Path) -> dict[str, Any]:
+    """Read and check a backup file (nurimc.backup): BackupError (a ValueError) names the file,
+    motor and field of anything it does not hold as we wrote it."""
     try:
-        document: dict[str, Any] = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise ValueError(f"cannot read backup {path}: {err}") from err
-    return document
+        return backup_file.load(path)
+    except OSError as err:
+        raise backup_file.BackupError(f"cannot read backup {path}: {err.strerror or err}") from err
 
 
 DEFAULTS = DEVICE_DEFAULTS

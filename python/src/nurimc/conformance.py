@@ -1,15 +1,88 @@
-"""The JSON-lines conformance program (conformance/README.md): one answer line per input line."""
+"""The JSON-lines conformance program (conformance/README.md): one answer line per input line.
+
+The line contract (what a line is, strict JSON, integers written as integers, the nesting
+and size limits) is checked here, before a request reaches the protocol code.
+"""
 
 from __future__ import annotations
 
 import json
 import re
 import sys
-from typing import Any, TextIO
+from collections.abc import Iterator
+from typing import Any, BinaryIO
 
 from .protocol import DecodeError, EncodeError, StreamParser, decode, make
 
+MAX_LINE_BYTES = 4 * 1024 * 1024
+MAX_DEPTH = 64
+# An integer literal longer than this is beyond every wire range; keep it cheap to convert.
+_LONGEST_INTEGER = 40
+_HUGE: int = 10**_LONGEST_INTEGER
+
 _HEX = re.compile(r"(?:[0-9a-fA-F]{2})*")
+_SURROGATE = re.compile("[\ud800-\udfff]")
+_JSON_SPACE = frozenset(b" \t\r")
+
+
+class BadRequest(Exception):
+    """A line that is not one request object under the line contract."""
+
+
+class _Float:
+    """A number written with a fraction or an exponent: never an integer, whatever its value."""
+
+    def __init__(self, text: str) -> None:
+        self.text = text
+
+    def __repr__(self) -> str:
+        return self.text
+
+
+def _integer(text: str) -> int:
+    digits = text.lstrip("-")
+    if len(digits) > _LONGEST_INTEGER:
+        return -_HUGE if text.startswith("-") else _HUGE
+    return int(text)
+
+
+def _no_constant(name: str) -> Any:
+    raise BadRequest(f"not JSON: {name}")
+
+
+_DECODER = json.JSONDecoder(parse_float=_Float, parse_int=_integer, parse_constant=_no_constant)
+
+
+def _check_tree(value: Any, depth: int = 1) -> None:
+    """Nesting limit and well-formed strings (no lone surrogates), keys included."""
+    if isinstance(value, (dict, list)):
+        if depth > MAX_DEPTH:
+            raise BadRequest(f"nested deeper than {MAX_DEPTH} levels")
+        items = value.items() if isinstance(value, dict) else enumerate(value)
+        for key, item in items:
+            if isinstance(key, str) and _SURROGATE.search(key):
+                raise BadRequest("a string holds a lone surrogate")
+            _check_tree(item, depth + 1)
+    elif isinstance(value, str) and _SURROGATE.search(value):
+        raise BadRequest("a string holds a lone surrogate")
+
+
+def read_request(raw: bytes) -> Any:
+    """The JSON value of one line (without its newline), or BadRequest."""
+    if all(b in _JSON_SPACE for b in raw):
+        raise BadRequest("empty line")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise BadRequest(f"not UTF-8: {err.reason} at byte {err.start}") from None
+    try:
+        value = _DECODER.decode(text)
+    except RecursionError:
+        raise BadRequest(f"nested deeper than {MAX_DEPTH} levels") from None
+    except ValueError as err:  # JSONDecodeError is a ValueError
+        raise BadRequest(f"not JSON: {err}") from None
+    _check_tree(value)
+    return value
 
 
 def _bytes(text: object) -> bytes:
@@ -17,6 +90,22 @@ def _bytes(text: object) -> bytes:
     if not isinstance(text, str) or not _HEX.fullmatch(text):
         raise ValueError(f"not hex: {text!r}")
     return bytes.fromhex(text)
+
+
+def _parse(request: dict[str, Any]) -> dict[str, Any]:
+    chunks = request.get("chunks")
+    if chunks is None:
+        pieces = [_bytes(request.get("hex"))]
+    elif isinstance(chunks, list):
+        pieces = [_bytes(chunk) for chunk in chunks]
+    else:
+        raise ValueError("chunks is not a list")
+    parser = StreamParser()
+    frames = []
+    for piece in pieces:
+        frames += parser.feed(piece)
+    frames += parser.finish()
+    return {"frames": [m.to_dict() for m in frames], "dropped_bytes": parser.stats.dropped_bytes}
 
 
 def answer(request: Any) -> dict[str, Any]:
@@ -35,16 +124,7 @@ def answer(request: Any) -> dict[str, Any]:
                 return {"error": "unknown_message"}
             return {"hex": make(request["message"], request["id"], **fields).encode().hex()}
         if op == "parse":
-            chunks = request.get("chunks")
-            parser = StreamParser()
-            frames = []
-            if chunks is None:
-                frames += parser.feed(_bytes(request.get("hex")))
-            else:
-                for chunk in chunks if isinstance(chunks, list) else [None]:
-                    frames += parser.feed(_bytes(chunk))
-            frames += parser.finish()
-            return {"frames": [m.to_dict() for m in frames], "dropped_bytes": parser.stats.dropped_bytes}
+            return _parse(request)
     except DecodeError as err:
         return {"error": err.kind}
     except EncodeError as err:
@@ -57,18 +137,42 @@ def answer(request: Any) -> dict[str, Any]:
     return {"error": "unknown_op"}
 
 
-def serve(stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout) -> None:
-    for line in stdin:
-        if not line.strip():
-            continue
-        try:
-            request = json.loads(line)
-        except json.JSONDecodeError as err:
-            reply: dict[str, Any] = {"error": "bad_request", "detail": f"not JSON: {err}"}
+def answer_line(raw: bytes) -> dict[str, Any]:
+    """The answer to one input line (bytes without the newline)."""
+    try:
+        request = read_request(raw)
+    except BadRequest as err:
+        return {"error": "bad_request", "detail": str(err)}
+    return answer(request)
+
+
+def lines(stream: BinaryIO) -> Iterator[bytes | None]:
+    """Each line's bytes (LF ends a line; a last unterminated line counts); an overlong
+    line is read past without being kept and comes out as None."""
+    while True:
+        raw = stream.readline(MAX_LINE_BYTES + 1)
+        if not raw:
+            return
+        if raw.endswith(b"\n"):
+            yield raw[:-1]
+        elif len(raw) <= MAX_LINE_BYTES:
+            yield raw  # the last line, without a newline
         else:
-            reply = answer(request)
-        stdout.write(json.dumps(reply) + "\n")
-        stdout.flush()
+            while raw and not raw.endswith(b"\n"):
+                raw = stream.readline(MAX_LINE_BYTES)
+            yield None
+
+
+def serve(stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
+    source = stdin if stdin is not None else sys.stdin.buffer
+    sink = stdout if stdout is not None else sys.stdout.buffer
+    for raw in lines(source):
+        if raw is None:
+            reply: dict[str, Any] = {"error": "bad_request", "detail": f"line longer than {MAX_LINE_BYTES} bytes"}
+        else:
+            reply = answer_line(raw)
+        sink.write(json.dumps(reply).encode("ascii") + b"\n")
+        sink.flush()
 
 
 if __name__ == "__main__":

@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
-from .protocol.errors import ProtocolError
+from .protocol.errors import FieldRangeError, ProtocolError
 
 __all__ = [
+    "CallTimeout",
+    "UnknownSetting",
+    "UsageError",
+    "ValueOutOfRange",
     "ConfirmationRequired",
     "CorruptedAnswer",
+    "ControllerBusy",
     "IdInUse",
+    "InputError",
     "NoAnswer",
     "NurimcError",
     "PortError",
@@ -19,6 +25,32 @@ __all__ = [
 
 class NurimcError(Exception):
     """Base class of every error of the bus client."""
+
+
+class InputError(NurimcError, ValueError):
+    """A value given by a person, a file or the network is not acceptable. The message names the
+    input, what was given, and the allowed range with its unit."""
+
+
+class ValueOutOfRange(InputError, FieldRangeError):
+    """A motor or setting value outside what the controller accepts; names the value, its range
+    and unit. Both an InputError (NurimcError) and the protocol layer's FieldRangeError."""
+
+
+class UnknownSetting(InputError, KeyError):
+    """A setting name that does not exist; the message lists the settings."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class UsageError(NurimcError, RuntimeError):
+    """The library was used in an order it does not support (the message says what to call first)."""
+
+
+class CallTimeout(NurimcError, TimeoutError):
+    """A whole bus call took longer than the timeout it was given and was abandoned (after its
+    cleanup ran: docs/drivers.md)."""
 
 
 class PortError(NurimcError):
@@ -45,6 +77,19 @@ class NoAnswer(NurimcError):
             f"attempt{'s' if attempts != 1 else ''}{extra}. Likely causes: {causes}"
         )
         self.request, self.device_id, self.baud, self.attempts = request, device_id, baud, attempts
+
+
+class ControllerBusy(NoAnswer):
+    """No answer just after the controller's EEPROM busy window: it is still writing its settings."""
+
+    def __init__(self, request: str, device_id: int, baud: int, attempts: int, window: float) -> None:
+        super().__init__(request, device_id, baud, attempts)
+        self.window = window
+        self.args = (
+            f"no answer from ID {device_id} to {request} at {baud} bps right after a settings write: "
+            f"it is busy writing its settings (EEPROM) longer than its {window * 1000:g} ms busy window; "
+            f"give it a longer one (Bus(..., busy_windows={{{device_id}: seconds}})) and try again",
+        )
 
 
 class CorruptedAnswer(NoAnswer):

@@ -15,7 +15,8 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from .client.actions import Procedure
-from .errors import NoAnswer, UnexpectedAnswer
+from .client.core import BusCore
+from .errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
 from .motor import MotorProcedures, MotorState
 from .protocol import Command, RequestPosition, SetResponseTime
 from .settings import SETTINGS
@@ -46,7 +47,7 @@ def stagger(motors: Sequence[MotorProcedures], baudrate: int) -> Procedure[int]:
     """Give motor k the response time (k + 1) * slot, verified; returns the slot in 100 us units."""
     slot = stagger_slot(baudrate)
     if slot * len(motors) > 254:
-        raise ValueError(
+        raise InputError(
             f"{len(motors)} motors need {slot * len(motors)} response-time units at {baudrate} bps but "
             f"254 is the most; stagger at most {254 // slot} motors at this rate, or use a faster rate"
         )
@@ -56,14 +57,33 @@ def stagger(motors: Sequence[MotorProcedures], baudrate: int) -> Procedure[int]:
     return slot
 
 
-def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Procedure[dict[int, MotorState]]:
-    """One broadcast position request, every staggered motor answering in turn."""
+def broadcast_window(core: BusCore, count: int, slot: int) -> float:
+    """How long the answers of `count` staggered motors may take, from the end of the request."""
+    window = (count + 1) * slot * 100e-6 + core.timing.wire_time(6 + FEEDBACK_LENGTH, core.baudrate)
+    return window + 2 * core.timing.latency + core.timing.margin
+
+
+def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Procedure[dict[int, MotorState | Exception]]:
+    """One broadcast position request, every staggered motor answering in turn; a motor
+    whose answer did not come is asked again on its own, and one that still does not answer
+    gets its error in its slot (as read_states). Always one entry per motor, in order."""
+    if not motors:
+        return {}
     core = motors[0].core
-    window = (len(motors) + 1) * slot * 100e-6 + core.timing.wire_time(6 + FEEDBACK_LENGTH, core.baudrate)
-    window += 2 * core.timing.latency + core.timing.margin
-    answers, _ = yield from core.broadcast_ask(RequestPosition, window, expect=len(motors))
-    by_id = {m.id: m for m in motors}
-    return {a.id: by_id[a.id].state_from(a) for a in answers if a.id in by_id}
+    ids = [m.id for m in motors]
+    answers, _ = yield from core.broadcast_ask(RequestPosition, broadcast_window(core, len(motors), slot), ids=ids)
+    got = {a.id: a for a in answers}
+    out: dict[int, MotorState | Exception] = {}
+    for motor in motors:
+        if motor.id in got:
+            out[motor.id] = motor.state_from(got[motor.id])
+            continue
+        try:  # its late answer to the broadcast, if it comes now, answers this call too
+            answer = yield from core.ask(RequestPosition(motor.id), own_pending=True)
+            out[motor.id] = motor.state_from(answer)
+        except (NoAnswer, UnexpectedAnswer) as err:
+            out[motor.id] = err
+    return out
 
 
 class Group:
@@ -84,7 +104,7 @@ class Group:
         self.slot = self.bus.run(stagger([m.procedures for m in self.motors], self.bus.baudrate))
         return self.slot
 
-    def read_states_broadcast(self) -> dict[int, MotorState]:
+    def read_states_broadcast(self) -> dict[int, MotorState | Exception]:
         if self.slot is None:
-            raise RuntimeError("call stagger() first: the motors' response times must be spaced")
+            raise UsageError("call stagger() first: the motors' response times must be spaced")
         return self.bus.run(read_states_broadcast([m.procedures for m in self.motors], self.slot))

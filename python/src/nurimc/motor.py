@@ -1,25 +1,27 @@
 """A motor per controller ID, in physical units: degrees, RPM, amperes, seconds.
 
-`MotorProcedures` holds the logic as procedures (sans-I/O); `Motor` runs them on a sync Bus,
-`nurimc.client.aio.AsyncMotor` on an AsyncBus. Builders (`make_*`) return the command
+`MotorProcedures` holds the logic as procedures (sans-I/O). The motor API is written once,
+in `MotorApi`: `Motor` runs each call on a sync Bus, `AsyncMotor` awaits it on an AsyncBus,
+with the same methods, arguments and documentation. Builders (`make_*`) return the command
 without sending it, for batches: `bus.send(*(m.make_run(30) for m in motors))`.
 """
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Concatenate, Generic, ParamSpec, TypeVar, overload
 
-from .client.actions import Procedure, Wait
+from .client.actions import Now, Procedure, Wait
 from .client.core import BusCore
-from .errors import NoAnswer, SettingNotApplied
+from .errors import InputError, NoAnswer, SettingNotApplied, ValueOutOfRange
 from .multiturn import TurnTracker, signed_degrees
 from .protocol import (
     PRODUCTS,
     AccelPosition,
     AccelSpeed,
     Command,
-    FieldRangeError,
     Message,
     PositionFeedback,
     PositionSpeed,
@@ -33,13 +35,17 @@ from .protocol import (
     message_class,
     units,
 )
+from .protocol.host import BUSY_POLL_INTERVAL, LIMITS
 from .settings import SETTINGS, Setting, setting
 
 if TYPE_CHECKING:
+    from .client.aio import AsyncBus
     from .client.sync import Bus
 
-POSITION_LIMIT = 655.33  # the largest position a command can carry, degrees
-EEPROM_SETTLE = 0.05  # a settings write keeps the controller busy 50-300 ms (field notes)
+POSITION_LIMIT = LIMITS["position_deg"]  # the largest position a command can carry, degrees
+SPEED_MIN, SPEED_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
+ARRIVAL_MIN, ARRIVAL_MAX = LIMITS["arrival_s_min"], LIMITS["arrival_s_max"]
+EEPROM_SETTLE = 0.05  # kept for callers; the bus core now waits out each ID's busy window itself
 VERIFY_WINDOW = 0.4  # how long a read-back may keep failing while the EEPROM write finishes
 HOLD_RPM = 10.0
 
@@ -65,21 +71,21 @@ class MotorProcedures:
 
     def __init__(self, core: BusCore, device_id: int, product: str = "mc") -> None:
         if product not in PRODUCTS:
-            raise ValueError(f"unknown product {product!r}; products: {', '.join(PRODUCTS)}")
+            raise InputError(f"unknown product {product!r}; products: {', '.join(PRODUCTS)}")
         self.core = core
+        core.products[device_id] = product  # its busy window comes from this product's profile
         self.id = device_id
         self.profile: ProductSpec = PRODUCTS[product]
         self.tracker = TurnTracker()
         self._relative: bool | None = None  # position mode, read before the first move
-        self._released = False
 
     # -- builders (no I/O) --------------------------------------------------
     def make_move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Command:
         """Position command for a signed target (CCW +). Give rpm (§1) or arrival seconds (§2)."""
         if (rpm is None) == (seconds is None):
-            raise ValueError("give exactly one of rpm= (speed) or seconds= (arrival time)")
+            raise InputError("give exactly one of rpm= (speed) or seconds= (arrival time)")
         if abs(degrees) > POSITION_LIMIT:
-            raise FieldRangeError("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
+            raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
         position = units.degrees_to_wire(abs(degrees))
         if rpm is not None:
             return PositionSpeed(self.id, _direction(degrees), position, self._speed_wire("move", rpm))
@@ -89,7 +95,7 @@ class MotorProcedures:
     def make_run(self, rpm: float, ramp_seconds: float = 0.1) -> Command:
         """Speed command: signed RPM (CCW +), reached in ramp_seconds (§3)."""
         if rpm == 0:
-            raise FieldRangeError(
+            raise ValueOutOfRange(
                 "run", "rpm", rpm, "a non-zero speed (speed 0 is invalid: use release() or hold() to stop)"
             )
         return AccelSpeed(self.id, _direction(rpm), self._speed_wire("run", abs(rpm)), self._seconds_wire(ramp_seconds))
@@ -100,14 +106,14 @@ class MotorProcedures:
     def _speed_wire(self, what: str, rpm: float) -> int:
         raw = units.rpm_to_wire(abs(rpm))
         if not 1 <= raw <= 65533:
-            raise FieldRangeError(what, "rpm", rpm, "0.1..6553.3 rpm")
+            raise ValueOutOfRange(what, "rpm", rpm, f"{SPEED_MIN}..{SPEED_MAX} rpm")
         return raw
 
     @staticmethod
     def _seconds_wire(seconds: float) -> int:
         raw = units.seconds_to_wire(seconds)
         if not 1 <= raw <= 255:
-            raise FieldRangeError("motion", "seconds", seconds, "0.1..25.5 s")
+            raise ValueOutOfRange("motion", "seconds", seconds, f"{ARRIVAL_MIN}..{ARRIVAL_MAX} s")
         return raw
 
     # -- motion ---------------------------------------------------------------
@@ -118,9 +124,15 @@ class MotorProcedures:
         return self._relative
 
     def _enable_if_released(self) -> Procedure[None]:
-        if self._released:
+        """Control on if it is off (read once if unknown). The motion that follows waits out the
+        busy window this starts (docs/protocol.md, Busy window, rule 5)."""
+        released = self.core.control_released.get(self.id)
+        if released is None:
+            answer = yield from self.core.ask(make_request("request_control", self.id))
+            released = answer.fields()["control"] == 1
+            self.core.control_released.setdefault(self.id, released)
+        if released:
             yield from self.core.tell(SetControl(self.id, 0))
-            self._released = False
 
     def move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Procedure[None]:
         """Go to an absolute signed position (in the device's frame, ±655.33 deg)."""
@@ -149,12 +161,10 @@ class MotorProcedures:
     def release(self) -> Procedure[None]:
         """Control off: the motor is no longer driven and coasts to a stop."""
         yield from self.core.tell(self.make_release())
-        self._released = True
 
     def hold(self) -> Procedure[None]:
         """Control on, holding the present position."""
         yield from self.core.tell(SetControl(self.id, 0))
-        self._released = False
         if (yield from self._position_mode_is_relative()):
             return
         state = yield from self.read_state()
@@ -212,10 +222,10 @@ class MotorProcedures:
         """Write a setting in physical units and verify it by reading it back."""
         s = setting(name)
         if s.command is None:
-            raise ValueError(f"{s.name} is read-only")
+            raise InputError(f"{s.name} is read-only")
         raw = s.to_wire(value)
         if s.field == "rated_current" and raw > self.profile.max_rated_current:
-            raise FieldRangeError(
+            raise ValueOutOfRange(
                 s.name, "value", value, f"0.1..{self.profile.max_rated_current / 10} A for {self.profile.title}"
             )
         fields = {s.field: raw}
@@ -226,12 +236,14 @@ class MotorProcedures:
         return s.to_physical(raw)
 
     def write_verified(self, s: Setting, command: Command, raw: int) -> Procedure[None]:
-        """Send a settings command, then read it back until it matches or the EEPROM window ends."""
+        """Send a settings command, then read it back until it matches.
+
+        The core holds the read-back until the busy window has ended; a controller slower than
+        its window is polled for one more window before the write is called failed."""
         yield from self.core.tell(command)
         self._remember(s, raw)
-        yield Wait(EEPROM_SETTLE)
         got: int | None = None
-        waited = EEPROM_SETTLE
+        give_up: float | None = None
         while True:
             try:
                 answer = yield from self.core.ask(make_request(s.request, self.id), retries=0)
@@ -240,10 +252,12 @@ class MotorProcedures:
                     return
             except NoAnswer:
                 pass
-            if waited >= VERIFY_WINDOW:
+            now: float = yield Now()
+            if give_up is None:
+                give_up = now + self.core.window(self.id)
+            if now >= give_up:
                 break
-            yield Wait(0.05)
-            waited += 0.05
+            yield Wait(BUSY_POLL_INTERVAL)
         self._relative = None
         said = "no answer" if got is None else f"it reads {s.to_physical(got)}"
         raise SettingNotApplied(
@@ -257,14 +271,56 @@ class MotorProcedures:
         elif s.name == "position-mode":
             self._relative = raw == 1
         elif s.name == "control":
-            self._released = raw == 1
+            self.core.control_released[self.id] = raw == 1
 
 
-class Motor:
-    """A motor on a sync Bus. Every method sends now; make_* methods build without sending."""
+P = ParamSpec("P")
+T = TypeVar("T")
 
-    def __init__(self, bus: Bus, device_id: int, product: str = "mc") -> None:
-        self.bus = bus
+
+class SyncHandle:
+    """A handle whose calls run now and return their result."""
+
+    bus: Bus
+
+
+class AsyncHandle:
+    """A handle whose calls return awaitables."""
+
+    bus: AsyncBus
+
+
+class _Call(Generic[P, T]):
+    """One motor call, written once: runs its procedure on the handle's bus, sync or async."""
+
+    def __init__(self, procedure: Callable[Concatenate[MotorProcedures, P], Procedure[T]]) -> None:
+        self.procedure = procedure
+        self.__doc__ = procedure.__doc__
+
+    @overload
+    def __get__(self, handle: None, owner: type) -> _Call[P, T]: ...
+    @overload
+    def __get__(self, handle: SyncHandle, owner: type) -> Callable[P, T]: ...
+    @overload
+    def __get__(self, handle: AsyncHandle, owner: type) -> Callable[P, Awaitable[T]]: ...
+    def __get__(self, handle: object, owner: type) -> Any:
+        if handle is None:
+            return self
+        procedure = self.procedure
+        procedures: MotorProcedures = handle.procedures  # type: ignore[attr-defined]
+        run = handle.bus.run  # type: ignore[attr-defined]
+
+        @functools.wraps(procedure)
+        def call(*args: P.args, **kwargs: P.kwargs) -> Any:
+            return run(procedure(procedures, *args, **kwargs))
+
+        return call
+
+
+class MotorApi:
+    """The motor API, once for both buses. Every call sends now (or raises); make_* build only."""
+
+    def __init__(self, bus: Bus | AsyncBus, device_id: int, product: str = "mc") -> None:
         self.procedures = MotorProcedures(bus.core, device_id, product)
         self.id = device_id
         self.make_move_to = self.procedures.make_move_to
@@ -272,37 +328,32 @@ class Motor:
         self.make_release = self.procedures.make_release
 
     def __repr__(self) -> str:
-        return f"Motor(id={self.id}, product={self.procedures.profile.key!r})"
+        return f"{type(self).__name__}(id={self.id}, product={self.procedures.profile.key!r})"
 
-    def move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> None:
-        self.bus.run(self.procedures.move_to(degrees, rpm, seconds))
+    move_to = _Call(MotorProcedures.move_to)
+    move_by = _Call(MotorProcedures.move_by)
+    run = _Call(MotorProcedures.run)
+    release = _Call(MotorProcedures.release)
+    hold = _Call(MotorProcedures.hold)
+    read_state = _Call(MotorProcedures.read_state)
+    read_speed = _Call(MotorProcedures.read_speed)
+    ping = _Call(MotorProcedures.ping)
+    get = _Call(MotorProcedures.get)
+    set = _Call(MotorProcedures.set)
+    read_settings = _Call(MotorProcedures.read_settings)
 
-    def move_by(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> None:
-        self.bus.run(self.procedures.move_by(degrees, rpm, seconds))
 
-    def run(self, rpm: float, ramp_seconds: float = 0.1) -> None:
-        self.bus.run(self.procedures.run(rpm, ramp_seconds))
+class Motor(MotorApi, SyncHandle):
+    """A motor on a sync Bus: `bus.motor(1).move_to(90, rpm=30)`."""
 
-    def release(self) -> None:
-        self.bus.run(self.procedures.release())
+    def __init__(self, bus: Bus, device_id: int, product: str = "mc") -> None:
+        super().__init__(bus, device_id, product)
+        self.bus = bus
 
-    def hold(self) -> None:
-        self.bus.run(self.procedures.hold())
 
-    def read_state(self) -> MotorState:
-        return self.bus.run(self.procedures.read_state())
+class AsyncMotor(MotorApi, AsyncHandle):
+    """A motor on an AsyncBus: `await bus.motor(1).move_to(90, rpm=30)`."""
 
-    def read_speed(self) -> float:
-        return self.bus.run(self.procedures.read_speed())
-
-    def ping(self) -> bool:
-        return self.bus.run(self.procedures.ping())
-
-    def get(self, name: str) -> Any:
-        return self.bus.run(self.procedures.get(name))
-
-    def set(self, name: str, value: object) -> Any:
-        return self.bus.run(self.procedures.set(name, value))
-
-    def read_settings(self) -> dict[str, Any]:
-        return self.bus.run(self.procedures.read_settings())
+    def __init__(self, bus: AsyncBus, device_id: int, product: str = "mc") -> None:
+        super().__init__(bus, device_id, product)
+        self.bus = bus

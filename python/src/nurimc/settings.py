@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .protocol import SPECS, FieldRangeError, FieldSpec, MessageSpec, units
+from .errors import UnknownSetting, ValueOutOfRange
+from .protocol import SPECS, FieldSpec, MessageSpec, units
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,10 +47,10 @@ class Setting:
         try:
             number = units.parse_quantity(value, spec.unit) if isinstance(value, str) else float(value)  # type: ignore[arg-type]
         except (TypeError, ValueError):
-            raise FieldRangeError(self.name, "value", value, self.describe_range()) from None
+            raise ValueOutOfRange(self.name, "value", value, self.describe_range()) from None
         raw = units.to_wire(number, spec.scale) if spec.unit else round(number)
         if not spec.min <= raw <= spec.max:
-            raise FieldRangeError(self.name, "value", value, self.describe_range())
+            raise ValueOutOfRange(self.name, "value", value, self.describe_range())
         return raw
 
     def to_physical(self, raw: int) -> float | int | str:
@@ -98,4 +99,4 @@ def setting(name: str) -> Setting:
     try:
         return SETTINGS[key]
     except KeyError:
-        raise KeyError(f"unknown setting {name!r}; settings: {', '.join(SETTINGS)}, id, baud") from None
+        raise UnknownSetting(f"unknown setting {name!r}; settings: {', '.join(SETTINGS)}, id, baud") from None

@@ -117,7 +117,7 @@ def test_errors_are_one_line_with_exit_codes(pty) -> None:  # type: ignore[no-un
     wrong_baud = cli("--id", "1", "--baud", "57600", "ping", port=pty[1])
     assert wrong_baud.returncode == 1 and "no answer" in wrong_baud.stderr and "baud" in wrong_baud.stderr
     bad_value = cli("--id", "1", "set", "ratio", "0", port=pty[1])
-    assert bad_value.returncode == 2 and "0.1..6553.3" in bad_value.stderr
+    assert bad_value.returncode == 2 and "0.1:1..6553.3:1" in bad_value.stderr
     unknown = cli("--id", "1", "get", "colour", port=pty[1])
     assert unknown.returncode == 2 and "position-kp" in unknown.stderr
     no_port = cli("--id", "1", "ping")

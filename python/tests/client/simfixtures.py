@@ -24,7 +24,8 @@ def sim_bus(
     for device_id, rate in ids.items() if isinstance(ids, dict) else ((i, baud) for i in ids):
         sim.add_controller(id=device_id, baud=rate)
     port = sim.open_serial(baudrate=baud, timeout=0.1)
-    bus = Bus(SerialTransport(port, "sim://", latency=0.002), retries=retries)
+    # the sim's EEPROM writes take 20 ms here; a 50 ms busy window keeps settings-heavy tests quick
+    bus = Bus(SerialTransport(port, "sim://", latency=0.002), retries=retries, busy_window=0.05)
     if resolution is not None:
         for controller in list(sim.controllers):
             bus.motor(controller.settings.id).set("resolution", resolution)

@@ -95,3 +95,67 @@ def test_diagnostics_are_counted() -> None:
     s = parser.stats
     assert (s.bad_checksum, s.unknown_mode, s.bad_size, s.frames) == (1, 1, 1, 0)
     assert s.dropped_bytes == 6 + 6 + 7 + 2
+
+
+# Streams that exercise every path: whole frames, frames with one byte changed (bad checksum,
+# size or mode), false headers and noise with FF and FE in it.
+def _damaged(message: Message, at: int, xor: int) -> bytes:
+    raw = bytearray(message.encode())
+    raw[at % len(raw)] ^= xor
+    return bytes(raw)
+
+
+PIECE = st.one_of(
+    FRAME_STRATEGY.map(lambda m: m.encode()),
+    st.builds(_damaged, FRAME_STRATEGY, st.integers(2, 11), st.integers(1, 255)),
+    st.binary(max_size=6),
+    st.sampled_from([b"\xff", b"\xff\xfe", b"\xff\xfe\x01", b"\xff\xfe\x01\x08", b"\xff\xfe\x01\x08\x00"]),
+)
+
+
+@settings(max_examples=300)
+@given(st.lists(PIECE, max_size=10), st.lists(st.integers(0, 10_000), max_size=8))
+def test_chunking_changes_neither_frames_nor_counters(pieces: list[bytes], cuts: list[int]) -> None:
+    # One byte at a time takes the careful path on every frame; whole or cut chunks mostly the fast one.
+    stream = b"".join(pieces)
+    whole, whole_parser = _parse_in_chunks(stream, [])
+    chunked, chunked_parser = _parse_in_chunks(stream, cuts)
+    one_by_one, byte_parser = _parse_in_chunks(stream, list(range(len(stream))))
+    assert whole == chunked == one_by_one
+    assert whole_parser.stats == chunked_parser.stats == byte_parser.stats
+    assert whole_parser.stats.frames == len(whole)
+
+
+def test_feed_accepts_bytearray_and_memoryview_and_copies_what_it_keeps() -> None:
+    raw = make("position_feedback", 2, direction=1, position=100, speed=5, current=1).encode()
+    parser = StreamParser()
+    head = bytearray(raw[:7])
+    assert parser.feed(head) == []
+    head[:] = b"\x00" * 7  # the caller reuses its buffer: the parser must hold its own copy
+    expected = make("position_feedback", 2, direction=1, position=100, speed=5, current=1)
+    assert parser.feed(memoryview(raw)[7:]) == [expected]
+
+
+def test_check_ranges_holds_back_out_of_range_frames_and_counts_them() -> None:
+    wild = make("position_feedback", 1, direction=7, position=0xFFFF, speed=0, current=255)  # direction 7: out of range
+    fine = make("position_feedback", 1, direction=1, position=10, speed=0, current=2)
+    stream = _encode_unchecked(wild) + fine.encode()
+    assert StreamParser().feed(stream) == [wild, fine]  # by default values come as they are
+    parser = StreamParser(check_ranges=True)
+    assert parser.feed(stream) == [fine]
+    assert (parser.stats.out_of_range, parser.stats.frames, parser.stats.dropped_bytes) == (1, 1, 12)
+
+
+def _encode_unchecked(message: Message) -> bytes:
+    from nurimc.protocol import build_frame
+
+    return build_frame(message.id, message.SPEC.mode, message.SPEC.layout.pack(*message[1:]))
+
+
+def test_finish_drops_a_cut_frame_and_counts_it() -> None:
+    raw = make("position_feedback", 2, direction=1, position=100, speed=5, current=1).encode()
+    parser = StreamParser()
+    assert parser.feed(b"\x00\x01" + raw[:9]) == []
+    assert parser.pending == 9
+    assert parser.finish() == []
+    assert (parser.pending, parser.stats.dropped_bytes, parser.stats.frames) == (0, 11, 0)

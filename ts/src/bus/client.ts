@@ -12,14 +12,20 @@
  *   sent again up to `retries` more times (after a short pause), then a typed error says
  *   why the last attempt failed: other frames (unexpected) before broken bytes
  *   (corrupted) before silence (no answer).
+ * - Busy windows (docs/protocol.md, Busy window): a command in EEPROM_WRITES (spec/host.json)
+ *   makes its ID busy for the ID's window after the write has gone out (set_id: the new ID too;
+ *   factory_reset: ID 0 too; a broadcast: every ID, for the largest window). No frame goes to
+ *   a busy ID before its window ends: the client waits it out. Silence from a request sent
+ *   within one more window after that is a ControllerBusyError, not a wiring problem.
  */
 import { answerName, encode, messageSpec, type AnswerMessageOf, type Message, type MessageOf } from "../codec.js";
 import type { AnswerOf } from "../generated/messages.js";
-import { BAUD_RATES } from "../generated/tables.js";
+import { DEFAULT_PROFILE, EEPROM_WRITES, HOST_PROFILES, HOST_TIMING } from "../generated/host.js";
+import { BAUD_RATES, BROADCAST_ID } from "../generated/tables.js";
 import { StreamParser } from "../parser.js";
-import { BusClosedError, BusError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "./errors.js";
+import { BusClosedError, BusError, ControllerBusyError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "./errors.js";
 import type { BytePort } from "./port.js";
-import { answerDeadlineMs, DEFAULT_TIMING, type Timing } from "./timing.js";
+import { answerDeadlineMs, DEFAULT_TIMING, wireTimeMs, type Timing } from "./timing.js";
 
 /** Requests with an answer (all of them: every request is answered). */
 type RequestName = keyof AnswerOf;
@@ -29,10 +35,18 @@ export interface BusOptions {
   timing?: Partial<Timing>;
   /** Known response-time settings (us) per controller ID; the others are assumed the largest. */
   responseTimesUs?: Record<number, number>;
-  /** How many times a request is sent again after no (valid) answer (default 2). */
+  /** How many times a request is sent again after no (valid) answer (default from spec/host.json: 2). */
   retries?: number;
-  /** Pause before a retry, ms (default 5). */
+  /** Pause before a retry, ms (default from spec/host.json: 5). */
   retryPauseMs?: number;
+  /** EEPROM busy window for every ID of this bus, ms (default: each ID's product profile). */
+  busyWindowMs?: number;
+  /** EEPROM busy window per ID, ms, ahead of busyWindowMs. */
+  busyWindowsMs?: Record<number, number>;
+  /** Product profile per ID (a key of HOST_PROFILES), for the default busy window; unknown IDs use "mc". */
+  products?: Record<number, string>;
+  /** The host clock in ms (default performance.now); tests may pass their own. */
+  now?: () => number;
   /** Every frame sent and received, decoded: for a traffic log or a raw view. */
   onTraffic?: (event: TrafficEvent) => void;
 }
@@ -56,6 +70,8 @@ export interface BusStats {
   unexpectedFrames: number;
   noAnswer: number;
   corrupted: number;
+  /** frames held back until a controller's EEPROM busy window ended */
+  busyWaits: number;
 }
 
 interface Pending {
@@ -67,13 +83,33 @@ interface Pending {
 
 /** Request/answer client over any BytePort. Every method is safe to call concurrently: calls queue. */
 export class Bus {
-  readonly stats: BusStats = { requests: 0, commands: 0, retries: 0, echoes: 0, staleFrames: 0, unexpectedFrames: 0, noAnswer: 0, corrupted: 0 };
+  readonly stats: BusStats = {
+    requests: 0,
+    commands: 0,
+    retries: 0,
+    echoes: 0,
+    staleFrames: 0,
+    unexpectedFrames: 0,
+    noAnswer: 0,
+    corrupted: 0,
+    busyWaits: 0,
+  };
   readonly parser = new StreamParser();
   timing: Timing;
   /** Known response-time settings (us) per controller ID (Motor keeps it up to date). */
   readonly responseTimesUs: Map<number, number>;
   retries: number;
   retryPauseMs: number;
+  /** EEPROM busy window for every ID, ms (undefined: from each ID's product profile). */
+  busyWindowMs: number | undefined;
+  /** EEPROM busy window per ID, ms, ahead of busyWindowMs. */
+  readonly busyWindowsMs: Map<number, number>;
+  /** Product profile per ID (Motor declares it), for the default busy window. */
+  readonly products: Map<number, string>;
+  private readonly now: () => number;
+  /** host-clock time each ID's busy window ends (kept after it ends, to name the error right) */
+  private readonly busyUntilMs = new Map<number, number>();
+  private busyAllUntilMs = 0;
   private readonly onTraffic: ((event: TrafficEvent) => void) | undefined;
   private readonly opened = Date.now();
   private readonly unsubscribe: Array<() => void>;
@@ -89,8 +125,14 @@ export class Bus {
     for (const [key, value] of Object.entries(timing)) nonNegative(`timing.${key}`, value);
     this.timing = timing;
     this.responseTimesUs = new Map(Object.entries(options.responseTimesUs ?? {}).map(([id, us]) => [Number(id), nonNegative("responseTimesUs", us)]));
-    this.retries = nonNegative("retries", options.retries ?? 2);
-    this.retryPauseMs = nonNegative("retryPauseMs", options.retryPauseMs ?? 5);
+    this.retries = nonNegative("retries", options.retries ?? HOST_TIMING.retries);
+    this.retryPauseMs = nonNegative("retryPauseMs", options.retryPauseMs ?? HOST_TIMING.retryPauseMs);
+    this.busyWindowMs = options.busyWindowMs === undefined ? undefined : nonNegative("busyWindowMs", options.busyWindowMs);
+    this.busyWindowsMs = new Map(
+      Object.entries(options.busyWindowsMs ?? {}).map(([id, ms]) => [deviceId("busyWindowsMs", id), nonNegative("busyWindowsMs", ms)]),
+    );
+    this.products = new Map(Object.entries(options.products ?? {}).map(([id, product]) => [deviceId("products", id), knownProduct(product)]));
+    this.now = options.now ?? (() => performance.now());
     this.onTraffic = options.onTraffic;
     this.unsubscribe = [
       port.onData((chunk) => this.received(chunk)),
@@ -128,7 +170,10 @@ export class Bus {
     frames.reduce((at, f) => (bytes.set(f, at), at + f.length), 0);
     return this.exclusive(async () => {
       this.stats.commands += commands.length;
-      if (bytes.length > 0) await this.transmit(commands, bytes);
+      if (bytes.length === 0) return;
+      await this.waitUntilFree(commands.map((command) => command.id));
+      await this.transmit(commands, bytes);
+      this.markBusy(commands, bytes.length);
     });
   }
 
@@ -162,6 +207,24 @@ export class Bus {
     );
   }
 
+  /** The EEPROM busy window of an ID, ms (docs/protocol.md, Busy window, rule 2); 255: the largest. */
+  windowMs(id: number): number {
+    if (id === BROADCAST_ID) {
+      const known = new Set([...this.busyWindowsMs.keys(), ...this.products.keys()]);
+      return Math.max(this.defaultWindowMs(), ...[...known].map((known) => this.windowMs(known)));
+    }
+    const own = this.busyWindowsMs.get(id);
+    if (own !== undefined) return own;
+    if (this.busyWindowMs !== undefined) return this.busyWindowMs;
+    return profileWindowMs(this.products.get(id) ?? DEFAULT_PROFILE);
+  }
+
+  /** Host-clock time (ms, see BusOptions.now) an ID may be sent a frame again; 0: any time. 255: every ID. */
+  busyUntil(id: number): number {
+    if (id === BROADCAST_ID) return Math.max(this.busyAllUntilMs, ...this.busyUntilMs.values());
+    return Math.max(this.busyAllUntilMs, this.busyUntilMs.get(id) ?? 0);
+  }
+
   /** Stop listening and close the port; queued calls fail with BusClosedError. */
   async close(): Promise<void> {
     if (this.closed === null) this.closed = new BusClosedError("the bus is closed");
@@ -173,11 +236,14 @@ export class Bus {
     this.stats.requests += 1;
     const timeout = this.timeoutMs(request);
     let failure: Error = new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
+    let firstSentAt = 0;
     for (let attempt = 0; attempt <= retries; attempt++) {
       if (attempt > 0) {
         this.stats.retries += 1;
         await sleep(this.retryPauseMs);
       }
+      await this.waitUntilFree([request.id]);
+      if (attempt === 0) firstSentAt = this.now();
       this.parser.clear(); // stale partial bytes from before this request
       const before = { ...this.parser.stats };
       let settle: (message: Message | null) => void = () => undefined;
@@ -200,7 +266,9 @@ export class Bus {
       // the last attempt's failure is reported, in the Python library's order of precedence
       if (pending.unexpected.length > 0) failure = new UnexpectedAnswerError(request, pending.unexpected);
       else if (dropped > 0 || badChecksum > 0) failure = new CorruptedAnswerError(request, attempt + 1, dropped, badChecksum);
-      else failure = new NoAnswerError(request, attempt + 1, timeout, this.port.baudRate);
+      else if (this.recentlyBusy(request.id, firstSentAt)) {
+        failure = new ControllerBusyError(request, attempt + 1, timeout, this.port.baudRate, this.windowMs(request.id));
+      } else failure = new NoAnswerError(request, attempt + 1, timeout, this.port.baudRate);
     }
     if (failure instanceof CorruptedAnswerError) this.stats.corrupted += 1;
     if (failure instanceof NoAnswerError) this.stats.noAnswer += 1;
@@ -211,6 +279,44 @@ export class Bus {
     if (this.closed !== null) throw this.closed instanceof BusError ? this.closed : new BusClosedError(`the port failed: ${this.closed.message}`, { cause: this.closed });
     for (const message of messages) this.onTraffic?.({ direction: "tx", time: Date.now() - this.opened, message });
     await this.port.write(frame);
+  }
+
+  private defaultWindowMs(): number {
+    return this.busyWindowMs ?? profileWindowMs(DEFAULT_PROFILE);
+  }
+
+  /** Rule 4: no frame to an ID (255: to any) before its busy window has ended. */
+  private async waitUntilFree(ids: readonly number[]): Promise<void> {
+    const until = Math.max(0, ...ids.map((id) => this.busyUntil(id)));
+    let now = this.now();
+    if (until <= now) return;
+    this.stats.busyWaits += 1;
+    while (until > now) {
+      await sleep(until - now);
+      now = this.now();
+    }
+  }
+
+  /** Rule 3: after the write, every EEPROM-writing command makes its ID(s) busy. */
+  private markBusy(commands: readonly Message[], frameBytes: number): void {
+    const end = this.now() + wireTimeMs(frameBytes, this.port.baudRate) + this.timing.latencyMs;
+    for (const command of commands) {
+      if (!EEPROM_WRITES.includes(command.name)) continue;
+      const ids = [command.id];
+      if (command.name === "set_id") ids.push((command as MessageOf<"set_id">).new_id);
+      else if (command.name === "factory_reset" && command.id !== BROADCAST_ID) ids.push(0); // it comes back as ID 0
+      for (const id of ids) {
+        const until = end + this.windowMs(id);
+        if (id === BROADCAST_ID) this.busyAllUntilMs = Math.max(this.busyAllUntilMs, until);
+        else this.busyUntilMs.set(id, Math.max(this.busyUntilMs.get(id) ?? 0, until));
+      }
+    }
+  }
+
+  /** Rule 6: was this request sent within one more window after the ID's busy window ended? */
+  private recentlyBusy(id: number, sentAt: number): boolean {
+    const until = this.busyUntil(id);
+    return until > 0 && sentAt < until + this.windowMs(id);
   }
 
   private received(chunk: Uint8Array): void {
@@ -242,6 +348,23 @@ export class Bus {
 }
 
 const sleep = (ms: number): Promise<void> => new Promise((resolve) => setTimeout(resolve, ms));
+
+function profileWindowMs(product: string): number {
+  return (HOST_PROFILES[product] ?? HOST_PROFILES[DEFAULT_PROFILE])?.busyWindowMs ?? 0;
+}
+
+function deviceId(option: string, key: string): number {
+  const id = Number(key);
+  if (!Number.isInteger(id) || id < 0 || id > 254) throw new RangeError(`bus option ${option}: ID ${key} is not 0..254`);
+  return id;
+}
+
+function knownProduct(product: string): string {
+  if (!Object.prototype.hasOwnProperty.call(HOST_PROFILES, product)) {
+    throw new RangeError(`unknown product ${JSON.stringify(product)}; known: ${Object.keys(HOST_PROFILES).join(", ")}`);
+  }
+  return product;
+}
 
 function nonNegative(name: string, value: number): number {
   if (!Number.isFinite(value) || value < 0) throw new RangeError(`bus option ${name} = ${value}: must be a finite number >= 0`);

@@ -90,3 +90,19 @@ export class VerifyError extends BusError {
     );
   }
 }
+
+/**
+ * No answer while the controller may still be writing its settings to EEPROM: the request
+ * was sent less than one more busy window after the ID's window ended (docs/protocol.md,
+ * Busy window, rule 6). A NoAnswerError, so code that catches silence still catches it.
+ */
+export class ControllerBusyError extends NoAnswerError {
+  override name = "ControllerBusyError";
+  constructor(request: Message, attempts: number, timeoutMs: number, baudRate: number, readonly busyWindowMs: number) {
+    super(request, attempts, timeoutMs, baudRate);
+    this.message =
+      `no answer to ${describe(request)} after ${attempts} attempt(s): controller ${request.id} is busy writing its ` +
+      `settings (EEPROM) right after a settings command; give it a longer busy window than ${busyWindowMs} ms ` +
+      "(BusOptions.busyWindowMs or busyWindowsMs)";
+  }
+}

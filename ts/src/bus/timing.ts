@@ -7,12 +7,14 @@
  * bits on the wire (8N1: start, 8 data, stop). A controller whose response-time setting
  * is unknown is assumed to use the largest (254 x 100 us = 25.4 ms).
  */
-export const BITS_PER_BYTE = 10;
+import { HOST_TIMING } from "../generated/host.js";
+
+export const BITS_PER_BYTE = HOST_TIMING.bitsPerByte;
 /** The largest response-time setting, in microseconds. */
-export const MAX_RESPONSE_TIME_US = 254 * 100;
+export const MAX_RESPONSE_TIME_US = HOST_TIMING.maxResponseTimeUs;
 
 export interface Timing {
-  /** Adapter latency each way, ms (USB adapters: 1-16 ms; FTDI's latency timer defaults to 16). Default 2. */
+  /** Adapter latency each way, ms (USB adapters: 1-16 ms; FTDI's latency timer defaults to 16). Default 2 (spec/host.json). */
   latencyMs: number;
   /** Scheduling slack of a busy host, ms. Default 3. */
   marginMs: number;
@@ -20,7 +22,12 @@ export interface Timing {
   assumedResponseTimeUs: number;
 }
 
-export const DEFAULT_TIMING: Readonly<Timing> = { latencyMs: 2, marginMs: 3, assumedResponseTimeUs: MAX_RESPONSE_TIME_US };
+/** The defaults of spec/host.json (`timing`). */
+export const DEFAULT_TIMING: Readonly<Timing> = {
+  latencyMs: HOST_TIMING.adapterLatencyMs,
+  marginMs: HOST_TIMING.marginMs,
+  assumedResponseTimeUs: MAX_RESPONSE_TIME_US,
+};
 
 /** Milliseconds `bytes` take on the wire at `baudRate`. */
 export function wireTimeMs(bytes: number, baudRate: number): number {

@@ -1,15 +1,57 @@
-"""`nurimc`: the command-line entry point. Each family of commands lives in its own module."""
+"""`nurimc`: the command-line entry point.
+
+Each family of commands lives in its own module, which exposes `register(app)` and never
+imports this one: the modules are listed once, in COMMAND_MODULES (a new one is one line
+there), and nothing imports back.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+import traceback
+from importlib import import_module
+from types import FrameType
 
 import typer
 
 from .. import __version__
 from ..errors import NurimcError
 from ..protocol import ProtocolError
-from .common import EXIT_DEVICE, EXIT_USAGE, Options, check_baud, err, parse_ids
+from ..sim.store import StateError
+from .common import (
+    CLICK_ERROR,
+    EXIT_DEVICE,
+    EXIT_OK,
+    EXIT_TERMINATED,
+    EXIT_USAGE,
+    USAGE_ERROR,
+    InputBadParameter,
+    Options,
+    Terminated,
+    check_baud,
+    err,
+    parse_ids,
+    say_error,
+)
+
+#: Every module of commands (in nurimc.cli), in the order `nurimc --help` lists them.
+COMMAND_MODULES = (
+    "inspect",
+    "motion",
+    "settings_cmd",
+    "frames",
+    "demo",
+    "sim_cmd",
+    "dashboard_cmd",
+    "ros2_cmd",
+    "record_cmd",
+)
+
+#: Commands that run until stopped: SIGTERM is their normal end (exit 0), not an interruption.
+LONG_RUNNING = frozenset({"watch", "sniff", "dashboard", "sim", "ros2", "record"})
+_invoked = [""]  # the command being run (set once the global options are parsed)
 
 app = typer.Typer(
     name="nurimc",
@@ -17,8 +59,16 @@ app = typer.Typer(
     "Example: nurimc --port /dev/ttyUSB0 --baud 115200 --id 1 status",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    add_completion=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
+def _print_version(shown: bool) -> None:
+    if shown:
+        typer.echo(__version__)
+        raise typer.Exit(EXIT_OK)
 
 
 @app.callback()
@@ -27,18 +77,29 @@ def main_options(
     port: str = typer.Option(
         None, "--port", "-p", envvar="NURIMC_PORT", help="Serial device or pyserial URL (sim://, socket://)."
     ),
-    baud: int = typer.Option(9600, "--baud", "-b", envvar="NURIMC_BAUD", help="Bus baud rate (one of the 18)."),
+    baud: str = typer.Option("9600", "--baud", "-b", envvar="NURIMC_BAUD", help="Bus baud rate (one of the 18)."),
     ids: str = typer.Option(None, "--id", "-i", envvar="NURIMC_ID", help="Controller ID(s): 1 or 1,2,5 or 0-3."),
     json_output: bool = typer.Option(False, "--json", help="Machine-readable output: one JSON document on stdout."),
-    verbose: bool = typer.Option(False, "--verbose", "-v", help="Log every frame sent and received (stderr)."),
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Also print every frame sent and received (stderr)."),
     product: str = typer.Option("mc", "--product", help="Product profile: mc or blmc-h."),
+    rs485: bool = typer.Option(
+        False, "--rs485", envvar="NURIMC_RS485", help="Drive the RS485 direction with RTS (no auto-direction adapter)."
+    ),
+    rs485_invert: bool = typer.Option(
+        False, "--rs485-invert", help="With --rs485: the opposite RTS level while sending."
+    ),
+    show_version: bool = typer.Option(
+        False, "--version", is_eager=True, callback=lambda shown: _print_version(shown), help="Print the version."
+    ),
 ) -> None:
     if product not in ("mc", "blmc-h"):
-        raise typer.BadParameter("use mc or blmc-h", param_hint="--product")
+        raise InputBadParameter(f"--product: {product!r} is not a product; use mc or blmc-h")
     ctx.obj = Options(port, check_baud(baud), parse_ids(ids), json_output, verbose, product)
+    ctx.obj.rs485 = rs485 or rs485_invert
+    ctx.obj.rs485_invert = rs485_invert
+    _invoked[:] = [ctx.invoked_subcommand or ""]
 
 
-@app.command()
 def conformance() -> None:
     """JSON-lines conformance program (what `conformance/run python` runs)."""
     from ..conformance import serve
@@ -46,28 +107,89 @@ def conformance() -> None:
     serve()
 
 
-@app.command()
 def version() -> None:
     """Print the version."""
     typer.echo(__version__)
 
 
-def _register() -> None:
-    from . import dashboard_cmd, demo, frames, inspect, motion, settings_cmd, sim_cmd  # noqa: F401 - each registers its commands
+for _name in COMMAND_MODULES:
+    import_module(f"{__package__}.{_name}").register(app)
+app.command()(conformance)
+app.command()(version)
 
 
-def main() -> None:
-    """Run the CLI; turn library errors into one line and an exit code, never a traceback."""
-    _register()
+def _usage_line(error: Exception) -> str:
+    if isinstance(error, InputBadParameter):
+        return error.message
+    text = str(getattr(error, "format_message", error.__str__)())
+    ctx = getattr(error, "ctx", None)
+    if isinstance(error, USAGE_ERROR) and ctx is not None:
+        return f"{text} (see: {ctx.command_path} --help)"
+    return text
+
+
+def _on_sigterm(signum: int, frame: FrameType | None) -> None:
+    raise Terminated
+
+
+def _os_error_text(error: OSError) -> str:
+    if error.strerror and error.filename:
+        return f"{error.filename}: {error.strerror}"
+    return str(error.strerror or error)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the CLI: every failure is one line on stderr and an exit code, never a traceback
+    (unless -v/--verbose asks for one, after that line)."""
+    args = list(sys.argv[1:] if args is None else args)
+    before = args[: args.index("--")] if "--" in args else args
+    verbose = "-v" in before or "--verbose" in before
+    _invoked[0] = ""
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous is signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _on_sigterm)
+    code = EXIT_OK
     try:
-        app(standalone_mode=True)
-    except NurimcError as error:
-        err.print(f"[bold red]error:[/] {error}", soft_wrap=True)
-        sys.exit(EXIT_DEVICE)
-    except (ProtocolError, ValueError, KeyError) as error:
-        text = error.args[0] if isinstance(error, KeyError) and error.args else error
-        err.print(f"[bold red]error:[/] {text}", soft_wrap=True)
-        sys.exit(EXIT_USAGE)
+        result = app(args=args, prog_name="nurimc", standalone_mode=False)
+        code = result if isinstance(result, int) else EXIT_OK
+    except typer.Abort:
+        say_error("aborted")
+        code = EXIT_DEVICE
+    except CLICK_ERROR as error:
+        say_error(_usage_line(error))
+        code = EXIT_DEVICE if getattr(error, "exit_code", EXIT_USAGE) == EXIT_DEVICE else EXIT_USAGE
+    except Terminated:
+        if _invoked[0] in LONG_RUNNING:
+            code = EXIT_OK
+        else:
+            say_error("terminated (SIGTERM) before the command finished")
+            code = EXIT_TERMINATED
     except KeyboardInterrupt:
         err.print("interrupted")
-        sys.exit(130)
+        code = 130
+    except NurimcError as error:
+        say_error(error)
+        code = EXIT_USAGE if isinstance(error, ValueError) else EXIT_DEVICE
+    except (ProtocolError, StateError, ValueError, KeyError) as error:
+        say_error(error.args[0] if isinstance(error, KeyError) and error.args else error)
+        code = EXIT_USAGE
+    except BrokenPipeError:
+        code = EXIT_DEVICE  # the reader went away (`nurimc status | head -1`): nothing left to tell
+        sys.stdout = None  # nothing more is written to the closed pipe
+    except OSError as error:
+        say_error(_os_error_text(error))
+        code = EXIT_DEVICE
+    except RecursionError:
+        say_error("input nested too deeply")
+        code = EXIT_USAGE
+    except Exception as error:
+        say_error(f"unexpected {type(error).__name__}: {error} (this is a bug; run with -v for the traceback)")
+        code = EXIT_DEVICE
+        if verbose:
+            traceback.print_exc()
+    finally:
+        with contextlib.suppress(OSError, AttributeError):
+            sys.stdout.flush()
+        if previous is signal.SIG_DFL:
+            signal.signal(signal.SIGTERM, previous)
+    sys.exit(code)

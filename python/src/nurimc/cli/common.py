@@ -1,4 +1,4 @@
-"""What every CLI command shares: global options, opening the bus, output, and errors.
+"""What every CLI command shares: global options, opening the bus, numbers, output, and errors.
 
 Exit codes: 0 ok, 1 device or bus error (no answer, port missing, change not applied),
 2 usage error (bad option, value out of range, unknown setting).
@@ -15,15 +15,33 @@ from typing import Any, NoReturn
 import typer
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
 from ..client.sync import Bus
+from ..errors import InputError
+from ..inputs import Rounded, integer, number, on_grid, range_text, show, with_unit
 from ..protocol import BAUD_RATES, StreamParser
+from ..transport import RS485
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
+EXIT_TERMINATED = 143  # SIGTERM during a one-shot command (128 + 15, the shell's convention)
+
+#: The longest error line we print; past it the message is cut (it stays one line).
+MESSAGE_LIMIT = 400
 
 # Colours only on a terminal (rich decides); stdout carries results, stderr carries messages.
 out = Console(highlight=False)
 err = Console(stderr=True, highlight=False)
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived: unwind (closing the port, removing temp files) and exit cleanly.
+
+    A BaseException so that no `except Exception` on the way swallows it."""
+
+
+#: Ctrl+C and SIGTERM: what long-running commands (watch, sniff) treat as "stop now, report".
+STOP = (KeyboardInterrupt, Terminated)
 
 
 @dataclass
@@ -34,10 +52,26 @@ class Options:
     json: bool = False
     verbose: bool = False
     product: str = "mc"
+    rs485: bool = False  # RS485 direction control (docs/troubleshooting.md)
+    rs485_invert: bool = False
+
+
+def one_line(message: object) -> str:
+    text = " ".join(str(message).split())
+    return text if len(text) <= MESSAGE_LIMIT else text[: MESSAGE_LIMIT - 3] + "..."
+
+
+def say_error(message: object) -> None:
+    err.print(Text.assemble(("error:", "bold red"), " ", one_line(message)), soft_wrap=True)
+
+
+def note(message: str) -> None:
+    """Something the person should know but that is not an error (e.g. a value the wire rounds)."""
+    err.print(Text.assemble(("note:", "yellow"), " ", one_line(message)), soft_wrap=True)
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
-    err.print(f"[bold red]error:[/] {message}", soft_wrap=True)
+    say_error(message)
     raise typer.Exit(code)
 
 
@@ -46,34 +80,91 @@ def options(ctx: typer.Context) -> Options:
     return obj if isinstance(obj, Options) else Options()
 
 
-def parse_ids(text: str | None) -> list[int]:
-    """'1', '1,2,5', '0-3' -> IDs (usage error otherwise)."""
-    if not text:
+# -- numbers a person types: every one goes through nurimc.inputs ----------------------------------
+
+
+class Number:
+    """A typer parser that checks a number with nurimc.inputs: finite, in range, unit in the message.
+
+    With `step` (the wire's resolution), the value is rounded as the wire will round it and the
+    rounding is reported on stderr (`note: --rpm 30.04 RPM -> 30 RPM`). With `whole`, fractions
+    are refused (counts, IDs). A refusal is a usage error whose one line names the input."""
+
+    def __init__(
+        self, name: str, low: float, high: float, unit: str = "", *, step: float | None = None, whole: bool = False
+    ) -> None:
+        self.name, self.low, self.high, self.unit, self.step, self.whole = name, low, high, unit, step, whole
+
+    @property
+    def allowed(self) -> str:
+        """For --help: `0.1..6553.3 RPM, steps of 0.1`."""
+        steps = f", steps of {with_unit(self.step, self.unit)}" if self.step else ", whole" if self.whole else ""
+        return range_text(self.low, self.high, self.unit) + steps
+
+    def __call__(self, value: Any) -> Any:
+        try:
+            if self.whole:
+                return integer(value, self.name, int(self.low), int(self.high), self.unit)
+            if self.step is None:
+                return number(value, self.name, self.low, self.high, self.unit)
+            rounded = on_grid(value, self.name, self.step, self.low, self.high, self.unit)
+        except InputError as error:
+            raise InputBadParameter(str(error)) from None
+        if rounded.changed and isinstance(value, str):  # defaults are on the grid; only typed text
+            note(rounded.note(self.name, self.unit))
+        return rounded.physical
+
+
+# typer may ship its own copy of click: take click's error classes from typer, never from `import click`.
+CLICK_ERROR: type[Exception] = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+USAGE_ERROR: type[Exception] = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+
+
+class InputBadParameter(typer.BadParameter):
+    """A bad value whose message already names the input, the range and the unit."""
+
+
+def report(rounded: Rounded, name: str, unit: str) -> float:
+    if rounded.changed:
+        note(rounded.note(name, unit))
+    return rounded.physical
+
+
+def parse_ids(text: str | None, name: str = "--id") -> list[int]:
+    """'1', '1,2,5', '0-3' -> IDs 0..254, each once, in order (usage error otherwise)."""
+    if text is None or not text.strip():
         return []
     ids: list[int] = []
     for part in text.split(","):
+        low_text, dash, high_text = part.strip().partition("-")
         try:
-            if "-" in part.strip()[1:]:
-                low, high = part.split("-", 1)
-                ids += range(int(low), int(high) + 1)
+            if dash and low_text:
+                low = integer(low_text, name, 0, 254)
+                high = integer(high_text, name, 0, 254)
+                if high < low:
+                    raise InputError(f"{name}: {show(part)} is an empty range; write the low ID first, e.g. 0-3")
+                ids += range(low, high + 1)
             else:
-                ids.append(int(part))
-        except ValueError:
-            fail(f"--id {text!r}: give IDs like 1 or 1,2,5 or 0-3")
-    for i in ids:
-        if not 0 <= i <= 254:
-            fail(f"--id {i}: IDs are 0..254")
-    return ids
+                ids.append(integer(part, name, 0, 254))
+        except InputError as error:
+            fail(f"{error} (IDs like 1 or 1,2,5 or 0-3)")
+    return list(dict.fromkeys(ids))
 
 
-def check_baud(rate: int) -> int:
-    if rate not in BAUD_RATES:
-        fail(f"--baud {rate}: not a rate these controllers support; use one of {', '.join(map(str, BAUD_RATES))}")
-    return rate
+def check_baud(rate: object, name: str = "--baud") -> int:
+    rates = ", ".join(map(str, BAUD_RATES))
+    try:
+        value = integer(rate, name, min(BAUD_RATES), max(BAUD_RATES), "bps")
+    except InputError as error:
+        fail(f"{error}, one of {rates}")
+    if value not in BAUD_RATES:
+        fail(f"{name}: {value} bps is not a rate these controllers support; use one of {rates}")
+    return value
 
 
 class FramePrinter:
-    """-v: print every frame on the bus, decoded, to stderr."""
+    """-v: print every frame on the bus, decoded, to stderr. It only watches: printing never
+    re-encodes (a broadcast ping to ID 255 is valid on the wire but not as a typed message)."""
 
     def __init__(self) -> None:
         self.parsers = {"tx": StreamParser(), "rx": StreamParser()}
@@ -81,8 +172,11 @@ class FramePrinter:
     def record(self, direction: str, data: bytes) -> None:
         for message in self.parsers[direction].feed(data):
             arrow = "->" if direction == "tx" else "<-"
-            line = f"{arrow} {message.encode().hex(' ')}  {message.name} id={message.id} {message.physical()}"
-            err.print(f"[dim]{line}[/]")
+            try:
+                detail = str(message.physical())
+            except Exception:  # a decoded frame that does not convert: show the raw fields instead
+                detail = str(message.fields())
+            err.print(Text(f"{arrow} {message.name} id={message.id} {detail}", style="dim"), soft_wrap=True)
 
     def close(self) -> None:
         pass
@@ -92,10 +186,11 @@ def open_bus(o: Options) -> Bus:
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1) or set NURIMC_PORT")
-    bus = Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None)
+    rs485 = RS485(rts_level_for_tx=not o.rs485_invert) if o.rs485 else None
+    bus = Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None, rs485=rs485)
     warning = getattr(bus.transport, "warning", None)
     if warning:
-        err.print(f"[yellow]warning:[/] {warning}", soft_wrap=True)
+        err.print(Text.assemble(("warning:", "yellow"), " ", one_line(warning)), soft_wrap=True)
     return bus
 
 
@@ -109,6 +204,8 @@ def emit(o: Options, data: Any, table: Table | str | None = None) -> None:
     """One JSON document on stdout with --json; otherwise the table (or text) for people."""
     if o.json:
         sys.stdout.write(json.dumps(data, indent=2, default=str) + "\n")
+    elif isinstance(table, str):
+        out.print(table, markup=False, soft_wrap=True)
     elif table is not None:
         out.print(table)
 

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
+import os
 import socket
 
 import typer
 
 from ..client.sync import Bus
-from .app import app
 from .common import EXIT_USAGE, fail, open_bus, options, out
 
 
-@app.command()
 def dashboard(
     ctx: typer.Context,
     sim: bool = typer.Option(False, "--sim", help="Run on a simulated bus (three motors) instead of --port."),
@@ -25,6 +24,13 @@ def dashboard(
 
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 dashboard   (then open http://127.0.0.1:8485)
     """
+    from rich.markup import escape
+
+    from ..extras import missing_extra
+
+    hint = missing_extra("dashboard")
+    if hint:
+        fail(escape(hint), EXIT_USAGE)
     import uvicorn
 
     from ..dashboard import DashboardConfig, create_app
@@ -47,8 +53,10 @@ def dashboard(
         from ..dashboard.simulated import simulated_bus
 
         sim_bus, bus = simulated_bus(tap)
+        port_name = "sim://"
     else:
         bus = Bus(open_bus(o).transport, tracer=tap)
+        port_name = o.port or os.environ.get("NURIMC_PORT", "")
 
     family = socket.AF_INET6 if ":" in address.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
@@ -65,7 +73,9 @@ def dashboard(
     def ready() -> None:
         out.print(f"ready: {url}", soft_wrap=True)
 
-    config = DashboardConfig(bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, on_ready=ready)
+    config = DashboardConfig(
+        bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, port=port_name, on_ready=ready
+    )
     server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", ws_max_size=1 << 20))
     try:
         server.run(sockets=[sock])
@@ -73,3 +83,7 @@ def dashboard(
         bus.close()
         if sim_bus is not None:
             sim_bus.close()
+
+
+def register(app: typer.Typer) -> None:
+    app.command()(dashboard)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -17,15 +19,18 @@ from ..discovery import Progress as ScanProgress
 from ..discovery import discover
 from ..sim import SimBus
 from ..transport import SerialTransport
-from .app import app
-from .common import out, table
+from .common import EXIT_DEVICE, Number, fail, out, table
 
 DEMO_MOTORS = {1: 115200, 2: 115200, 3: 57600}  # ID -> rate: the demo does not know them in advance
 TARGETS = {1: 90.0, 2: -180.0, 3: 360.0}
+DEMO_SECONDS = Number("--seconds", 0, 3600, "s")
 
 
-@app.command()
-def demo(seconds: float = typer.Option(4.0, help="How long to watch the motors move.")) -> None:
+def demo(
+    seconds: float = typer.Option(
+        4.0, help=f"How long to watch the motors move ({DEMO_SECONDS.allowed}).", parser=DEMO_SECONDS
+    ),
+) -> None:
     """Simulated bus with three motors: discover them, configure them, move them, watch them.
 
     Example: nurimc demo
@@ -95,16 +100,32 @@ def demo(seconds: float = typer.Option(4.0, help="How long to watch the motors m
     sim.close()
 
 
-@app.command()
-def bench(quick: bool = typer.Option(False, help="Short runs, nothing recorded.")) -> None:
-    """Run the benchmarks (from a source checkout) and record their results.
+def bench(
+    quick: bool = typer.Option(False, help="Short runs (never recorded)."),
+    record: bool = typer.Option(False, help="Write the figures to benchmarks/results/ (full runs only)."),
+) -> None:
+    """Run the benchmarks (from a source checkout); record their results only with --record.
 
-    Example: nurimc bench
+    Example: nurimc bench --record
     """
     root = Path(__file__).resolve().parents[4]
     scripts = sorted((root / "benchmarks").glob("*.py"))
     if not scripts:
-        raise typer.BadParameter("the benchmarks live in the source tree (benchmarks/); run from a clone")
-    for script in scripts:
-        out.print(f"[bold]{script.name}[/]")
-        subprocess.run([sys.executable, str(script), *(["--quick"] if quick else [])], check=True)
+        fail("the benchmarks live in the source tree (benchmarks/); run from a clone")
+    if quick and record:
+        fail("bench: --quick runs are too short to record; drop --quick to record")
+    with tempfile.TemporaryDirectory(prefix="nurimc-bench-") as scratch:
+        for script in scripts:
+            out.print(f"[bold]{script.name}[/]")
+            # Each script writes next to itself (results/); unless recording, it runs from a scratch copy.
+            where = script if record else Path(shutil.copy(script, scratch))
+            (where.parent / "results").mkdir(exist_ok=True)
+            done = subprocess.run([sys.executable, str(where), *(["--quick"] if quick else [])], check=False)
+            if done.returncode != 0:
+                fail(f"bench: {script.name} failed (exit {done.returncode})", EXIT_DEVICE)
+    out.print("recorded in benchmarks/results/" if record else "nothing recorded (add --record to keep the figures)")
+
+
+def register(app: typer.Typer) -> None:
+    app.command()(demo)
+    app.command()(bench)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -9,10 +10,15 @@ from typing import Any
 
 import typer
 
-from ..client.log import replay as replay_log
-from ..protocol import SPECS, DecodeError, Message, StreamParser, decode, make, units
-from .app import app
-from .common import emit, fail, open_bus, options, table
+from ..errors import InputError
+from ..inputs import field_value, integer, number, show
+from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, decode, make
+from .common import STOP, Number, emit, fail, open_bus, options, table
+
+#: A traffic log line longer than this is not one we wrote (a line holds one read or write).
+LOG_LINE_LIMIT = 1 << 20
+TO = Number("--to", 0, 255, whole=True)
+DURATION = Number("--duration", 0, 86400, "s")
 
 
 def _describe(message: Message) -> dict[str, Any]:
@@ -42,7 +48,6 @@ def _hex_arguments(args: list[str]) -> bytes:
         fail("give hex bytes like 'FF FE 00 02 5C A1' (or - for stdin, or a file of hex)")
 
 
-@app.command(name="decode")
 def decode_(
     ctx: typer.Context, hex_bytes: list[str] = typer.Argument(..., help="Hex bytes, '-' for stdin, or a file.")
 ) -> None:
@@ -79,17 +84,16 @@ def decode_(
         rows.add_row("[red]error[/]", "", "", "", problem)
     emit(o, {"frames": [_describe(m) for m in frames], "errors": problems}, rows)
     if problems and not frames:
-        raise typer.Exit(2)
+        fail(f"no valid frame: {problems[0]}")
 
 
-@app.command()
 def encode(
     ctx: typer.Context,
     message: str = typer.Argument(..., help=f"Message name: {', '.join(SPECS)}."),
     values: list[str] = typer.Argument(
         None, help="field=value: wire integers or with a unit (180deg, 100rpm, 2s, 8A)."
     ),
-    device_id: int = typer.Option(0, "--to", help="ID to address (255 = broadcast)."),
+    device_id: int = typer.Option(0, "--to", help=f"ID to address ({TO.allowed}; 255 = broadcast).", parser=TO),
 ) -> None:
     """Build a frame with the right checksum.
 
@@ -106,23 +110,18 @@ def encode(
         if field is None or not text:
             fail(f"{item!r}: give field=value with a field of {message}: {', '.join(spec.field_names) or 'none'}")
         try:
-            names = {n: raw for raw, n in field.values}
-            fields[name] = (
-                names[text]
-                if text in names
-                else int(text)
-                if text.lstrip("-").isdigit()
-                else units.to_wire(units.parse_quantity(text, field.unit), field.scale)
-            )
-        except ValueError:
-            fail(f"{item!r}: not a number or a value with a unit")
+            fields[name] = _wire_value(f"{message}.{name}", field, text)
+        except InputError as error:
+            fail(str(error))
     frame = make(message, device_id, **fields).encode()
     emit(o, {"hex": frame.hex(), "message": message, "id": device_id, "fields": fields}, frame.hex(" ").upper())
 
 
-@app.command()
 def sniff(
-    ctx: typer.Context, duration: float = typer.Option(0, help="Stop after this many seconds (0: Ctrl+C).")
+    ctx: typer.Context,
+    duration: float = typer.Option(
+        0, help=f"Stop after this many seconds ({DURATION.allowed}; 0: until Ctrl+C).", parser=DURATION
+    ),
 ) -> None:
     """Listen without sending and decode everything on the bus, with timestamps.
 
@@ -140,25 +139,90 @@ def sniff(
                     seen.append({"t": round(t, 6), **_describe(m)})
                     if not o.json:
                         print(f"{t:10.4f}  id={m.id:<3} {m.name:24s} {m.physical()}", flush=True)
-        except KeyboardInterrupt:
-            pass
+        except STOP:
+            pass  # Ctrl+C or SIGTERM: the normal end of listening
     emit(o, {"frames": seen, "dropped_bytes": parser.stats.dropped_bytes})
 
 
-@app.command()
 def replay(ctx: typer.Context, log: str = typer.Argument(..., help="A traffic log (Bus(log_path=...)).")) -> None:
     """Decode a traffic log.
 
     Example: nurimc replay traffic.log
     """
     o = options(ctx)
-    if not Path(log).is_file():
-        fail(f"no such log file: {log}")
     rows = table(log, "t (s)", "dir", "frame")
-    entries = []
-    for entry in replay_log(log):
-        message = entry.get("message")
-        text = f"{message.name} id={message.id} {message.physical()}" if message else f"[red]{entry['error']}[/]"
-        rows.add_row(str(entry.get("t", "")), entry.get("dir", ""), text)
-        entries.append({k: (_describe(v) if k == "message" else v) for k, v in entry.items()})
+    entries: list[dict[str, Any]] = []
+    parsers = {"tx": StreamParser(), "rx": StreamParser()}
+    try:
+        lines = read_traffic_log(log)
+    except OSError as error:
+        fail(f"{log}: {error.strerror or error}")
+    for t, direction, data in lines:
+        parser = parsers[direction]
+        before = parser.stats.dropped_bytes
+        for message in parser.feed(data):
+            rows.add_row(str(t), direction, f"{message.name} id={message.id} {message.physical()}")
+            entries.append({"t": t, "dir": direction, "message": _describe(message)})
+        if parser.stats.dropped_bytes > before:
+            noise = f"{parser.stats.dropped_bytes - before} bytes of noise"
+            rows.add_row(str(t), direction, f"[red]{noise}[/]")
+            entries.append({"t": t, "dir": direction, "error": noise})
     emit(o, entries, rows)
+
+
+def read_traffic_log(path: str) -> list[tuple[float, str, bytes]]:
+    """Every line of a traffic log as (t, dir, bytes); InputError naming file, line and field if
+    a line is not one a traffic log holds ({"t": seconds, "dir": "tx"|"rx", "hex": "..."})."""
+    lines: list[tuple[float, str, bytes]] = []
+    with open(path, "rb") as file:
+        for number_, raw in enumerate(iter(lambda: file.readline(LOG_LINE_LIMIT + 1), b""), 1):
+            where = f"{path} line {number_}"
+            if len(raw) > LOG_LINE_LIMIT:
+                raise InputError(f"{where}: longer than {LOG_LINE_LIMIT} bytes; not a traffic log line")
+            if not raw.strip():
+                continue
+            try:
+                entry = json.loads(raw.decode("utf-8"))
+            except UnicodeDecodeError:
+                raise InputError(f"{where}: not UTF-8 text; not a traffic log") from None
+            except RecursionError:
+                raise InputError(f"{where}: nested too deeply; not a traffic log line") from None
+            except ValueError as error:
+                raise InputError(f"{where}: not JSON ({error}); not a traffic log line") from None
+            if not isinstance(entry, dict):
+                raise InputError(f"{where}: {show(entry)} is not a JSON object with t, dir and hex")
+            t = number(entry.get("t"), f"{where}: t", 0, None, "s")
+            direction = entry.get("dir")
+            if direction not in ("tx", "rx"):
+                raise InputError(f"{where}: dir {show(direction)} is not tx or rx")
+            text = entry.get("hex")
+            try:
+                data = bytes.fromhex(text) if isinstance(text, str) else None
+            except ValueError:
+                data = None
+            if data is None:
+                raise InputError(f"{where}: hex {show(text)} is not hex bytes")
+            lines.append((t, direction, data))
+    return lines
+
+
+def _wire_value(name: str, field: FieldSpec, text: str) -> int:
+    """encode's field=value: a named value, a wire integer, or a physical value with its unit."""
+    names = {n: raw for raw, n in field.values}
+    if text.strip().lower() in names:
+        return names[text.strip().lower()]
+    try:
+        float(text)
+    except ValueError:  # a unit, or not a number at all
+        rounded = field_value(
+            text, name, FieldSpec(field.name, field.width, field.min, field.max, field.unit, field.scale)
+        )
+        assert not isinstance(rounded, str)
+        return rounded.wire
+    return integer(text, name, field.min, field.max, "(wire units)")
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="decode")(decode_)
+    for command in (encode, sniff, replay):
+        app.command()(command)

@@ -7,32 +7,29 @@ from typing import Any
 
 import typer
 from rich.live import Live
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ..client.sync import Bus
 from ..discovery import Progress as ScanProgress
 from ..discovery import discover
 from ..errors import NurimcError
+from ..inputs import UNIT_SHOWN, with_unit
 from ..motor import MotorState
 from ..protocol import BAUD_RATES
-from .app import app
-from .common import emit, err, one_id, open_bus, options, parse_ids, table
+from ..settings import SETTINGS
+from .common import STOP, Number, check_baud, emit, err, fail, one_id, open_bus, options, parse_ids, table
+
+INTERVAL = Number("--interval", 0.01, 3600, "s")
+COUNT = Number("--count", 0, 1_000_000, whole=True)
 
 
 def _rates(text: str | None) -> list[int]:
     if not text:
         return list(BAUD_RATES)
-    try:
-        rates = [int(r) for r in text.split(",")]
-    except ValueError:
-        raise typer.BadParameter("give rates like 9600,115200", param_hint="--rates") from None
-    bad = [r for r in rates if r not in BAUD_RATES]
-    if bad:
-        raise typer.BadParameter(f"{bad} not among the 18 rates {list(BAUD_RATES)}", param_hint="--rates")
-    return rates
+    return list(dict.fromkeys(check_baud(r, "--rates") for r in text.split(",")))
 
 
-@app.command()
 def scan(
     ctx: typer.Context,
     rates: str = typer.Option(None, help="Only these rates, e.g. 9600,115200 (default: all 18)."),
@@ -43,7 +40,7 @@ def scan(
     Example: nurimc --port /dev/ttyUSB0 scan --rates 9600,115200
     """
     o = options(ctx)
-    rate_list, id_list = _rates(rates), parse_ids(ids) or None
+    rate_list, id_list = _rates(rates), parse_ids(ids, "--ids") or None
     columns = (
         TextColumn("{task.description}"),
         BarColumn(),
@@ -95,7 +92,6 @@ def product_guess(bus: Bus, device_id: int) -> str:
     return "BLMC-H?" if isinstance(resolution, int) and resolution <= 24 and resolution % 2 == 0 else "MC?"
 
 
-@app.command()
 def ping(ctx: typer.Context) -> None:
     """Check that a controller answers, and how fast.
 
@@ -124,7 +120,23 @@ def _state_dict(state: MotorState) -> dict[str, Any]:
     }
 
 
-@app.command()
+def _state_rows(state: MotorState) -> list[tuple[str, str]]:
+    """The reading, each row with its unit; names that cannot be taken for a setting's."""
+    return [
+        ("position", with_unit(state.position, "°")),
+        ("device position", with_unit(state.device_position, "°")),
+        ("speed", with_unit(state.speed, "RPM")),
+        ("current", with_unit(state.current, "A")),
+        ("position sign", f"{state.direction} (the side of zero the device reports)"),
+    ]
+
+
+def _setting_text(name: str, value: object) -> str:
+    s = SETTINGS.get(name)
+    unit = UNIT_SHOWN.get(s.spec.unit, "") if s is not None else ""
+    return with_unit(value, unit) if isinstance(value, int | float) else str(value)
+
+
 def status(ctx: typer.Context) -> None:
     """Position, speed, current, direction and every setting of one controller.
 
@@ -136,19 +148,22 @@ def status(ctx: typer.Context) -> None:
         motor = bus.motor(device_id, o.product)
         state = motor.read_state()
         settings = motor.read_settings()
-    rows = table(f"ID {device_id} at {o.baud} bps", "", "value")
-    for key, value in _state_dict(state).items():
-        rows.add_row(key, str(value))
+    rows = table(f"ID {device_id} at {o.baud} bps", "reading", "value")
+    for key, text in _state_rows(state):
+        rows.add_row(key, text)
+    rows.add_section()
+    rows.add_row("[bold]setting[/]", "")
     for key, value in settings.items():
-        rows.add_row(key, str(value))
+        rows.add_row(f"{key}", _setting_text(key, value))
     emit(o, {"id": device_id, "baud": o.baud, "state": _state_dict(state), "settings": settings}, rows)
 
 
-@app.command()
 def watch(
     ctx: typer.Context,
-    interval: float = typer.Option(0.1, help="Seconds between readings."),
-    count: int = typer.Option(0, help="Stop after this many readings (0: until Ctrl+C)."),
+    interval: float = typer.Option(0.1, help=f"Seconds between readings ({INTERVAL.allowed}).", parser=INTERVAL),
+    count: int = typer.Option(
+        0, help=f"Stop after this many readings ({COUNT.allowed}; 0: until Ctrl+C).", parser=COUNT
+    ),
 ) -> None:
     """Live table of one or many motors (Ctrl+C to stop).
 
@@ -156,20 +171,20 @@ def watch(
     """
     o = options(ctx)
     if not o.ids:
-        raise typer.BadParameter("give the motors to watch with --id 1,2,3", param_hint="--id")
+        fail("watch: give the motors to watch with --id 1,2,3")
     readings: list[dict[str, Any]] = []
     with open_bus(o) as bus:
         motors = [bus.motor(i, o.product) for i in o.ids]
 
         def render() -> Any:
-            rows = table(None, "ID", "position °", "speed RPM", "current A", "direction")
+            rows = table(None, "ID", "position °", "speed RPM", "current A", "position sign")
             for m in motors:
                 try:
                     s = m.read_state()
                     readings.append({"id": m.id, **_state_dict(s)})
                     rows.add_row(str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction)
                 except NurimcError as error:
-                    rows.add_row(str(m.id), "[red]no answer[/]", "", "", str(error)[:40])
+                    rows.add_row(str(m.id), "[red]no answer[/]", "", "", escape(str(error)[:40]))
             return rows
 
         n = 0
@@ -181,6 +196,11 @@ def watch(
                         break
                     time.sleep(interval)
                     live.update(render(), refresh=True)
-        except KeyboardInterrupt:
-            pass
+        except STOP:
+            pass  # Ctrl+C or SIGTERM: the normal end of watching
     emit(o, readings)
+
+
+def register(app: typer.Typer) -> None:
+    for command in (scan, ping, status, watch):
+        app.command()(command)

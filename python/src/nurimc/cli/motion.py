@@ -2,25 +2,49 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
 
-from .app import app
-from .common import emit, one_id, open_bus, options
+from ..protocol.host import LIMITS
+from .common import Number, emit, fail, one_id, open_bus, options
+
+POSITION = LIMITS["position_deg"]
+RPM_MIN, RPM_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
+SECONDS_MIN, SECONDS_MAX = LIMITS["arrival_s_min"], LIMITS["arrival_s_max"]
+
+DEGREES = Number("degrees", -POSITION, POSITION, "°", step=0.01)
+RPM = Number("--rpm", RPM_MIN, RPM_MAX, "RPM", step=0.1)
+SECONDS = Number("--seconds", SECONDS_MIN, SECONDS_MAX, "s", step=0.1)
+SIGNED_RPM = Number("rpm", -RPM_MAX, RPM_MAX, "RPM", step=0.1)
+RAMP = Number("--ramp", SECONDS_MIN, SECONDS_MAX, "s", step=0.1)
+
+# `move -90` and `run -60`: a negative number is a value, not an option (see register()).
+NUMBERS_FIRST: dict[str, Any] = {"ignore_unknown_options": True}
 
 
-@app.command()
 def move(
     ctx: typer.Context,
-    degrees: float = typer.Argument(..., help="Target in degrees (CCW +), or the amount with --by."),
+    degrees: float = typer.Argument(
+        ...,
+        help=f"Target (CCW +), or the amount with --by: {DEGREES.allowed}.",
+        parser=DEGREES,
+    ),
     by: bool = typer.Option(False, "--by", help="Move by DEGREES from where the motor is."),
-    rpm: float = typer.Option(None, help="Speed in RPM."),
-    seconds: float = typer.Option(None, help="Arrival time in seconds (instead of --rpm)."),
+    rpm: float = typer.Option(None, help=f"Speed: {RPM.allowed} (default 30).", parser=RPM),
+    seconds: float = typer.Option(
+        None,
+        help=f"Arrival time instead of --rpm: {SECONDS.allowed}.",
+        parser=SECONDS,
+    ),
 ) -> None:
     """Move to a position (or by an amount) at a speed or in a time.
 
     Example: nurimc --port /dev/ttyUSB0 --id 1 move 90 --rpm 60
     """
     o = options(ctx)
+    if rpm is not None and seconds is not None:
+        fail("move: give --rpm (a speed) or --seconds (an arrival time), not both")
     if rpm is None and seconds is None:
         rpm = 30.0  # a gentle default
     with open_bus(o) as bus:
@@ -35,23 +59,27 @@ def move(
     )
 
 
-@app.command()
 def run(
     ctx: typer.Context,
-    rpm: float = typer.Argument(..., help="Speed in RPM, CCW positive; not 0 (use release)."),
-    ramp: float = typer.Option(0.5, help="Seconds to reach the speed."),
+    rpm: float = typer.Argument(
+        ...,
+        help=f"Speed, CCW positive: {SIGNED_RPM.allowed}; not 0 (to stop: release).",
+        parser=SIGNED_RPM,
+    ),
+    ramp: float = typer.Option(0.5, help=f"Time to reach the speed: {RAMP.allowed}.", parser=RAMP),
 ) -> None:
     """Turn at a speed, ramping up.
 
-    Example: nurimc --port /dev/ttyUSB0 --id 1 run -- -120 --ramp 1
+    Example: nurimc --port /dev/ttyUSB0 --id 1 run -120 --ramp 1
     """
     o = options(ctx)
+    if abs(rpm) < RPM_MIN:
+        fail(f"rpm: {rpm} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way (to stop: release)")
     with open_bus(o) as bus:
         bus.motor(one_id(o), o.product).run(rpm, ramp)
     emit(o, {"id": o.ids[0], "rpm": rpm, "ramp_s": ramp}, f"ID {o.ids[0]}: running at {rpm} RPM")
 
 
-@app.command()
 def release(ctx: typer.Context) -> None:
     """Control off: the motor is no longer driven and coasts to a stop.
 
@@ -63,10 +91,6 @@ def release(ctx: typer.Context) -> None:
     emit(o, {"id": o.ids[0], "control": "off"}, f"ID {o.ids[0]}: released (control off)")
 
 
-app.command(name="stop", help="Same as release: control off, the motor coasts to a stop.")(release)
-
-
-@app.command()
 def hold(ctx: typer.Context) -> None:
     """Control on, holding the present position.
 
@@ -76,3 +100,11 @@ def hold(ctx: typer.Context) -> None:
     with open_bus(o) as bus:
         bus.motor(one_id(o), o.product).hold()
     emit(o, {"id": o.ids[0], "control": "on"}, f"ID {o.ids[0]}: holding")
+
+
+def register(app: typer.Typer) -> None:
+    app.command(context_settings=NUMBERS_FIRST)(move)
+    app.command(context_settings=NUMBERS_FIRST)(run)
+    app.command()(release)
+    app.command(name="stop", help="Same as release: control off, the motor coasts to a stop.")(release)
+    app.command()(hold)

@@ -3,22 +3,25 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
+from typing import TypeVar
 
 import typer
 
+from .. import backup as backup_file
 from .. import config
 from ..client.sync import Bus
 from ..discovery import discover
+from ..errors import InputError
+from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
 from ..motor import Motor
-from ..protocol import BAUD_RATES
-from ..settings import SETTINGS, setting
-from .app import app
-from .common import Options, emit, fail, one_id, open_bus, options, table
+from ..settings import SETTINGS, Setting, setting
+from .common import EXIT_DEVICE, Options, check_baud, emit, fail, note, one_id, open_bus, options, table
 
+T = TypeVar("T")
 NAMES = ", ".join([*SETTINGS, "id", "baud"])
 
 
-@app.command()
 def get(ctx: typer.Context, name: str = typer.Argument(..., help=f"One of: {NAMES}.")) -> None:
     """Read one setting, in physical units.
 
@@ -38,11 +41,10 @@ def get(ctx: typer.Context, name: str = typer.Argument(..., help=f"One of: {NAME
     emit(
         o,
         {"id": o.ids[0], "name": s.name, "value": value, "unit": s.unit},
-        f"{s.name} = {value}{' ' + s.unit if s.unit else ''}",
+        f"{s.name} = {_shown(s, value)}",
     )
 
 
-@app.command(name="set")
 def set_(
     ctx: typer.Context,
     name: str = typer.Argument(..., help=f"One of: {NAMES}."),
@@ -54,9 +56,19 @@ def set_(
     """
     o = options(ctx)
     device_id = one_id(o)
+    if name == "id":
+        new = _checked(lambda: integer(value, "id", 0, 254))
+    elif name == "baud":
+        rate = check_baud(value, "baud")
+    else:
+        s = setting(name)
+        if s.command is None:
+            fail(f"{s.name} is read-only")
+        wanted = _checked(lambda: field_value(value, s.name, s.spec, whole=s.spec.unit == "count"))
+        if isinstance(wanted, Rounded) and wanted.changed:
+            note(wanted.note(s.name, UNIT_SHOWN.get(s.spec.unit, "")))
     with open_bus(o) as bus:
         if name == "id":
-            new = _int(value, "id")
             bus.run(config.change_id(bus.core, device_id, new))
             emit(
                 o,
@@ -65,9 +77,6 @@ def set_(
             )
             return
         if name == "baud":
-            rate = _int(value, "baud")
-            if rate not in BAUD_RATES:
-                fail(f"baud {rate}: use one of {', '.join(map(str, BAUD_RATES))}")
             bus.run(config.change_baud(bus.core, device_id, rate))
             emit(
                 o,
@@ -75,20 +84,24 @@ def set_(
                 f"ID {device_id} now talks at {rate} bps (verified); use --baud {rate} from now on",
             )
             return
-        s = setting(name)
-        written = bus.motor(device_id, o.product).set(s.name, value)
+        written = bus.motor(device_id, o.product).set(s.name, wanted if isinstance(wanted, str) else wanted.physical)
+    extra = {"asked": wanted.asked} if isinstance(wanted, Rounded) and wanted.changed else {}
     emit(
         o,
-        {"id": device_id, "name": s.name, "value": written, "unit": s.unit, "verified": True},
-        f"{s.name} = {written}{' ' + s.unit if s.unit else ''} (verified)",
+        {"id": device_id, "name": s.name, "value": written, "unit": s.unit, "verified": True, **extra},
+        f"{s.name} = {_shown(s, written)} (verified)",
     )
 
 
-def _int(text: str, what: str) -> int:
+def _checked(check: Callable[[], T]) -> T:
     try:
-        return int(text)
-    except ValueError:
-        fail(f"{what} must be a whole number, not {text!r}")
+        return check()
+    except InputError as error:
+        fail(str(error))
+
+
+def _shown(s: Setting, value: object) -> str:
+    return with_unit(value, UNIT_SHOWN.get(s.spec.unit, "")) if isinstance(value, int | float) else str(value)
 
 
 def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
@@ -96,17 +109,17 @@ def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
         return [bus.motor(i, o.product) for i in o.ids]
     found = bus.run(discover(bus.core, [o.baud]))
     if not found:
-        fail(f"no controller answers at {o.baud} bps; give --baud or --id", 1)
+        fail(f"no controller answers at {o.baud} bps; give --baud or --id", EXIT_DEVICE)
     return [bus.motor(f.id, o.product) for f in found]
 
 
-@app.command()
 def backup(ctx: typer.Context, file: str = typer.Argument(..., help="JSON file to write.")) -> None:
     """Save every setting of every motor (--id, or all found at --baud) to a file.
 
     Example: nurimc --port /dev/ttyUSB0 backup robot.json
     """
     o = options(ctx)
+    backup_file.check_writable(file)  # before any bus traffic
     with open_bus(o) as bus:
         motors = _motors_on_bus(bus, o)
         document = bus.run(config.backup([m.procedures for m in motors]))
@@ -114,7 +127,6 @@ def backup(ctx: typer.Context, file: str = typer.Argument(..., help="JSON file t
     emit(o, {"file": file, "ids": [m.id for m in motors]}, f"saved {len(motors)} motor(s) to {file}")
 
 
-@app.command()
 def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file written by backup.")) -> None:
     """Write back every setting that differs from a backup (each verified).
 
@@ -131,7 +143,6 @@ def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file wri
     emit(o, {"file": file, "changed": changed}, rows)
 
 
-@app.command(name="factory-reset")
 def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", help="Do not ask.")) -> None:
     """Erase every setting of one controller: it returns as ID 0 at 9600 bps.
 
@@ -150,3 +161,11 @@ def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", h
         {"id": device_id, "reset": True, "now": {"id": 0, "baud": 9600}},
         f"ID {device_id} reset to factory defaults: it is now ID 0 at 9600 bps",
     )
+
+
+def register(app: typer.Typer) -> None:
+    app.command()(get)
+    app.command(name="set", context_settings={"ignore_unknown_options": True})(set_)  # `set ratio -5`: a value
+    app.command()(backup)
+    app.command()(restore)
+    app.command(name="factory-reset")(factory_reset)

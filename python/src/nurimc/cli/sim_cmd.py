@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from ..sim.cli import sim as _sim
-from .app import app
+import typer
 
-sim = app.command(name="sim")(_sim)
+from ..sim.cli import sim
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="sim")(sim)

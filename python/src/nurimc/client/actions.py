@@ -2,29 +2,40 @@
 
 Procedures (generators) hold all the logic and know nothing of ports, threads or clocks;
 a driver (sync: nurimc.client.sync, asyncio: nurimc.client.aio) performs each action and
-sends its result back into the generator.
+sends its result back into the generator. Times are the driver's clock (seconds, monotonic);
+a procedure only compares and adds them. The contract between the two: docs/drivers.md.
 """
 
 from __future__ import annotations
 
 from collections.abc import Generator
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
+
+
+class Sent(NamedTuple):
+    """When a write ran: `started` just before the write call, `finished` just after it returned."""
+
+    started: float
+    finished: float
 
 
 @dataclass(frozen=True, slots=True)
 class Send:
-    """Write bytes to the bus. Result: None."""
+    """Write bytes to the bus. Result: Sent(started, finished)."""
 
     data: bytes
 
 
 @dataclass(frozen=True, slots=True)
 class Receive:
-    """Read up to max_bytes, until `deadline` seconds after the last Send. Result: bytes (b"" = deadline passed)."""
+    """Read up to max_bytes, until the clock reads `until`. Result: bytes (b"" = time is up).
+
+    A driver that wakes after `until` (a loaded host) still hands over what has already
+    arrived, so a slow host costs nothing but time."""
 
     max_bytes: int
-    deadline: float
+    until: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -37,6 +48,18 @@ class Wait:
     """Let time pass (e.g. a controller writing its EEPROM). Result: None."""
 
     seconds: float
+
+
+@dataclass(frozen=True, slots=True)
+class WaitUntil:
+    """Let time pass until the clock reads `when` (no wait if it has). Result: the clock after."""
+
+    when: float
+
+
+@dataclass(frozen=True, slots=True)
+class Now:
+    """Read the driver's clock. Result: float seconds."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +76,6 @@ class Note:
     event: Any
 
 
-Action = Send | Receive | Discard | Wait | SetBaud | Note
+Action = Send | Receive | Discard | Wait | WaitUntil | Now | SetBaud | Note
 T = TypeVar("T")
 Procedure = Generator[Action, Any, T]

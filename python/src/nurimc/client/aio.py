@@ -1,65 +1,132 @@
 """The asyncio bus: the same core procedures, carried out without blocking the event loop.
 
 Port reads run in a worker thread (pyserial has no async API); everything else — matching,
-retries, timeouts, motor logic — is the very code the sync Bus runs.
+retries, timeouts, busy windows, motor logic — is the very code the sync Bus runs, and the
+driver keeps the same contract (docs/drivers.md).
 """
 
 from __future__ import annotations
 
 import asyncio
+import time
+from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from ..motor import MotorProcedures, MotorState
+from ..motor import AsyncMotor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Procedure, Receive, Wait
+from .actions import Action, Procedure, Receive, Wait, WaitUntil
 from .core import BusCore
+from .log import FrameRecorder
 from .perform import Performer
+from .sync import Listeners, make_core
 from .timing import Timing
 
 T = TypeVar("T")
 
+__all__ = ["AsyncBus", "AsyncMotor", "drive_async"]
 
-async def drive_async(procedure: Procedure[T], transport: Transport) -> T:
-    performer = Performer(transport)
+
+async def drive_async(
+    procedure: Procedure[T],
+    transport: Transport,
+    listeners: Sequence[FrameRecorder] = (),
+    on_note: Callable[[Any], None] | None = None,
+) -> T:
+    """Carry out a procedure's actions without blocking the loop (docs/drivers.md).
+
+    A failing action or a cancellation (including asyncio.timeout / wait_for on the whole
+    call) is thrown into the procedure, whose cleanup then still runs on the bus; the
+    cancellation is raised again once the procedure has finished."""
+    performer = Performer(transport, listeners, on_note)
     result: Any = None
+    error: BaseException | None = None
     try:
-        action = procedure.send(None)
         while True:
-            if type(action) is Receive:
-                remaining = performer.remaining(action.deadline)
-                if remaining > 0:
-                    result = await asyncio.to_thread(transport.read, action.max_bytes, remaining)
-                else:
-                    result = b""
-            elif type(action) is Wait:
-                await asyncio.sleep(action.seconds)
-                result = None
-            else:
-                result = performer.perform(action)
-            action = procedure.send(result)
-    except StopIteration as stop:
-        return stop.value  # type: ignore[no-any-return]
+            try:
+                action: Action = procedure.send(result) if error is None else procedure.throw(error)
+            except StopIteration as stop:
+                return stop.value  # type: ignore[no-any-return]
+            result, error = None, None
+            try:
+                result = await _perform(performer, transport, action)
+            except BaseException as err:  # every failure goes to the procedure
+                error = err
+    finally:
+        procedure.close()
+
+
+async def _perform(performer: Performer, transport: Transport, action: Action) -> Any:
+    if type(action) is Receive:
+        wait = performer.read_timeout(action.until)
+        if wait is None:
+            return b""
+        read = asyncio.ensure_future(asyncio.to_thread(transport.read, action.max_bytes, wait))
+        try:
+            return performer.received(await asyncio.shield(read))
+        except asyncio.CancelledError:
+            # the read goes on in its thread: let it end before anything else uses the port
+            await asyncio.wait([read])
+            raise
+    if type(action) is Wait:
+        await asyncio.sleep(action.seconds)
+        return None
+    if type(action) is WaitUntil:
+        await asyncio.sleep(max(0.0, action.when - time.monotonic()))
+        return time.monotonic()
+    return performer.perform(action)
 
 
 class AsyncBus:
-    """`async with AsyncBus.open(url) as bus: await bus.motor(1).read_state()`"""
+    """`async with AsyncBus.open(url) as bus: await bus.motor(1).read_state()`
 
-    def __init__(self, transport: Transport, retries: int = 2, timing: Timing | None = None) -> None:
+    Takes the options of the sync Bus (busy_window, busy_windows, late_answer, log_path,
+    tracer, listeners, ...), with the same meaning."""
+
+    def __init__(
+        self,
+        transport: Transport,
+        retries: int = 2,
+        timing: Timing | None = None,
+        log_path: str | None = None,
+        tracer: FrameRecorder | None = None,
+        listeners: Sequence[FrameRecorder] = (),
+        **options: Any,
+    ) -> None:
         self.transport = transport
-        self.core = BusCore(
-            baudrate=transport.baudrate, retries=retries, timing=timing or Timing(latency=transport.latency)
-        )
+        self.core: BusCore = make_core(transport, retries, timing, options)
         self._lock = asyncio.Lock()
+        self._listeners = Listeners(log_path, tracer, listeners)
 
     @classmethod
     def open(cls, url: str, baudrate: int = 9600, **options: Any) -> AsyncBus:
-        latency = options.pop("latency", None)
-        return cls(open_transport(url, baudrate, latency), **options)
+        latency, rs485 = options.pop("latency", None), options.pop("rs485", None)
+        return cls(open_transport(url, baudrate, latency, rs485), **options)
 
-    async def run(self, procedure: Procedure[T]) -> T:
+    @property
+    def listeners(self) -> list[FrameRecorder]:
+        return self._listeners.items
+
+    def add_listener(self, listener: FrameRecorder) -> None:
+        self._listeners.items.append(listener)
+
+    def remove_listener(self, listener: FrameRecorder) -> None:
+        self._listeners.items.remove(listener)
+
+    @property
+    def baudrate(self) -> int:
+        return self.core.baudrate
+
+    @property
+    def stats(self) -> Any:
+        return self.core.stats
+
+    async def set_baudrate(self, rate: int) -> None:
+        await self.run(self.core.set_baud(rate))
+
+    async def run(self, procedure: Procedure[T], on_note: Callable[[Any], None] | None = None) -> T:
         async with self._lock:
-            return await drive_async(procedure, self.transport)
+            return await drive_async(procedure, self.transport, self._listeners.items, on_note)
 
     async def request(self, request: Request, retries: int | None = None) -> Message:
         return await self.run(self.core.ask(request, retries))
@@ -72,43 +139,13 @@ class AsyncBus:
 
     async def close(self) -> None:
         async with self._lock:
-            self.transport.close()
+            try:
+                self.transport.close()
+            finally:
+                self._listeners.close()
 
     async def __aenter__(self) -> AsyncBus:
         return self
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
-
-
-class AsyncMotor:
-    """The async twin of nurimc.Motor: same procedures, awaited."""
-
-    def __init__(self, bus: AsyncBus, device_id: int, product: str = "mc") -> None:
-        self.bus = bus
-        self.id = device_id
-        self.procedures = MotorProcedures(bus.core, device_id, product)
-
-    async def move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> None:
-        await self.bus.run(self.procedures.move_to(degrees, rpm, seconds))
-
-    async def move_by(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> None:
-        await self.bus.run(self.procedures.move_by(degrees, rpm, seconds))
-
-    async def run(self, rpm: float, ramp_seconds: float = 0.1) -> None:
-        await self.bus.run(self.procedures.run(rpm, ramp_seconds))
-
-    async def release(self) -> None:
-        await self.bus.run(self.procedures.release())
-
-    async def hold(self) -> None:
-        await self.bus.run(self.procedures.hold())
-
-    async def read_state(self) -> MotorState:
-        return await self.bus.run(self.procedures.read_state())
-
-    async def get(self, name: str) -> Any:
-        return await self.bus.run(self.procedures.get(name))
-
-    async def set(self, name: str, value: object) -> Any:
-        return await self.bus.run(self.procedures.set(name, value))

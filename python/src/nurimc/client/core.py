@@ -1,17 +1,33 @@
 """The bus client's sans-I/O core: request/answer exchanges as procedures.
 
 Both the sync Bus and the AsyncBus hold one BusCore and run its procedures with their own
-driver, so the matching, retry and timeout rules exist once.
+driver, so the matching, retry, timeout, busy-window and stale-answer rules exist once.
+The rules are written down in docs/protocol.md ("Busy window", "Stale answers").
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from ..errors import CorruptedAnswer, NoAnswer, UnexpectedAnswer
-from ..protocol import BROADCAST_ID, Command, Message, Request, StreamParser, answer_class, build_frame
-from .actions import Discard, Procedure, Receive, Send, SetBaud, Wait
+from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, UnexpectedAnswer
+from ..protocol import (
+    BROADCAST_ID,
+    Command,
+    FactoryReset,
+    Message,
+    Request,
+    SetControl,
+    SetId,
+    StreamParser,
+    answer_class,
+    build_frame,
+)
+from ..protocol.host import LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window, writes_eeprom
+from .actions import Discard, Now, Procedure, Receive, Send, Sent, SetBaud, Wait, WaitUntil
 from .timing import Timing
+
+ALL_IDS = range(255)
 
 
 @dataclass
@@ -23,64 +39,230 @@ class BusStats:
     retries: int = 0
     no_answer: int = 0
     echo_frames: int = 0  # our own request seen again (adapters that echo)
-    stale_frames: int = 0  # valid frames that answer nothing we asked now
+    stale_frames: int = 0  # valid frames that answer nothing we asked now (late, early, or not ours)
     dropped_bytes: int = 0  # noise and broken frames
+    busy_waits: int = 0  # frames held back until a controller's EEPROM busy window ended
+    quiet_waits: int = 0  # requests held back until a late answer came or could no longer come
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
 
 
 @dataclass
+class Pending:
+    """Answers still owed by one ID: `count` of them, none expected after `until` (host clock)."""
+
+    count: int
+    until: float
+
+
+@dataclass
 class BusCore:
     baudrate: int = 9600
     timing: Timing = field(default_factory=Timing)
-    retries: int = 2  # extra attempts for a request that got no valid answer
-    retry_pause: float = 0.005
+    retries: int = RETRIES  # extra attempts for a request that got no valid answer
+    retry_pause: float = RETRY_PAUSE
     #: known response time (seconds) per controller ID; unknown IDs get timing.assumed_response_time
     response_times: dict[int, float] = field(default_factory=dict)
     stats: BusStats = field(default_factory=BusStats)
+    #: EEPROM busy window for every ID of this bus (None: from each ID's product profile)
+    busy_window: float | None = None
+    #: EEPROM busy window per ID, ahead of busy_window
+    busy_windows: dict[int, float] = field(default_factory=dict)
+    #: product profile per ID, as motor handles declared it (for the default busy window)
+    products: dict[int, str] = field(default_factory=dict)
+    #: how late an answer may be, beyond its deadline, and still be told apart from a fresh one
+    late_answer: float = LATE_ANSWER
+    #: control state per ID as last sent or read: True = released (off), False = on
+    control_released: dict[int, bool] = field(default_factory=dict)
+    # host-clock time each ID's busy window ends (kept after it ends, to name the error right)
+    _busy_until: dict[int, float] = field(default_factory=dict)
+    _busy_all_until: float = 0.0
+    _waits_pending: float = 0.0  # the latest busy time not yet waited out (0: nothing to wait for)
+    _pending: dict[int, Pending] = field(default_factory=dict)
 
-    def ask(self, request: Request, retries: int | None = None) -> Procedure[Message]:
-        """Send a request and return its answer; retried, since reading twice is harmless."""
+    # -- busy windows ------------------------------------------------------------------------
+    def window(self, device_id: int) -> float:
+        """The EEPROM busy window of an ID (docs/protocol.md, Busy window, rule 2)."""
+        if device_id == BROADCAST_ID:
+            return max([self.window(i) for i in {*self.busy_windows, *self.products}] + [self._default_window()])
+        if device_id in self.busy_windows:
+            return self.busy_windows[device_id]
+        if self.busy_window is not None:
+            return self.busy_window
+        return busy_window(self.products.get(device_id, "mc"))
+
+    def _default_window(self) -> float:
+        return self.busy_window if self.busy_window is not None else busy_window("mc")
+
+    def busy_until(self, device_id: int) -> float:
+        """Host-clock time the ID may be sent a frame again (0: any time)."""
+        if device_id == BROADCAST_ID:
+            return max([self._busy_all_until, *self._busy_until.values()])
+        return max(self._busy_all_until, self._busy_until.get(device_id, 0.0))
+
+    def _wait_until_free(self, ids: Iterable[int]) -> Procedure[None]:
+        if not self._waits_pending:
+            return
+        when = max(self.busy_until(i) for i in ids)
+        now = yield Now()
+        if when > now:
+            self.stats.busy_waits += 1
+            now = yield WaitUntil(when)
+        if now >= self._waits_pending:
+            self._waits_pending = 0.0
+
+    def _mark_busy(self, commands: Sequence[Command], sent: Sent, nbytes: int) -> None:
+        end = sent.finished + self.timing.wire_time(nbytes, self.baudrate) + self.timing.latency
+        for command in commands:
+            if isinstance(command, SetControl):
+                self._note_control(command.id, command.control == 1)
+            if not writes_eeprom(command.SPEC.mode):
+                continue
+            ids = [command.id]
+            if isinstance(command, SetId):
+                ids.append(command.new_id)
+                if command.id in self.control_released:
+                    self.control_released[command.new_id] = self.control_released.pop(command.id)
+            elif isinstance(command, FactoryReset) and command.id != BROADCAST_ID:
+                ids.append(0)  # it comes back as ID 0
+                self.control_released.pop(command.id, None)
+            for device_id in ids:
+                until = end + self.window(device_id)
+                if device_id == BROADCAST_ID:
+                    self._busy_all_until = max(self._busy_all_until, until)
+                else:
+                    self._busy_until[device_id] = max(self._busy_until.get(device_id, 0.0), until)
+                self._waits_pending = max(self._waits_pending, until)
+
+    def _note_control(self, device_id: int, released: bool) -> None:
+        if device_id == BROADCAST_ID:
+            for known in {*self.control_released, *self.products}:
+                self.control_released[known] = released
+        else:
+            self.control_released[device_id] = released
+
+    def _recently_busy(self, device_id: int, sent_at: float) -> bool:
+        """Was this request sent within one more window after the ID's busy window ended?"""
+        until = self.busy_until(device_id)
+        return bool(until) and sent_at < until + self.window(device_id)
+
+    # -- pending (possibly late) answers ------------------------------------------------------
+    def _owe(self, device_id: int, until: float) -> None:
+        pending = self._pending.get(device_id)
+        if pending is None:
+            self._pending[device_id] = Pending(1, until)
+        else:
+            pending.count += 1
+            pending.until = max(pending.until, until)
+
+    def _settle_frame(self, message: Message) -> bool:
+        """Count a frame as stale; True if it was an answer some ID still owed."""
+        self.stats.stale_frames += 1
+        pending = self._pending.get(message.id)
+        if pending is None or isinstance(message, Request):
+            return False
+        pending.count -= 1
+        if pending.count <= 0:
+            del self._pending[message.id]
+        return True
+
+    def _quiet(self, ids: Iterable[int]) -> Procedure[None]:
+        """Before asking these IDs: listen until the answers they still owe came or cannot come."""
+        if not self._pending:
+            return
+        waiting = [i for i in ids if i in self._pending]
+        if not waiting:
+            return
+        now = yield Now()
+        parser = StreamParser()
+        counted = False
+        while True:
+            for i in waiting:
+                pending = self._pending.get(i)
+                if pending is not None and pending.until <= now:
+                    del self._pending[i]
+            waiting = [i for i in waiting if i in self._pending]
+            if not waiting:
+                break
+            if not counted:
+                self.stats.quiet_waits += 1
+                counted = True
+            data = yield Receive(64, max(self._pending[i].until for i in waiting))
+            for message in parser.feed(data) if data else parser.finish():
+                self._settle_frame(message)
+            now = yield Now()
+        self.stats.dropped_bytes += parser.stats.dropped_bytes
+
+    def _discard(self) -> Procedure[None]:
+        data = yield Discard()
+        if not data:
+            return
+        parser = StreamParser()
+        for message in [*parser.feed(data), *parser.finish()]:
+            if isinstance(message, Request):
+                self.stats.echo_frames += 1
+            else:
+                self._settle_frame(message)
+        self.stats.dropped_bytes += parser.stats.dropped_bytes
+
+    # -- exchanges ---------------------------------------------------------------------------
+    def ask(self, request: Request, retries: int | None = None, *, own_pending: bool = False) -> Procedure[Message]:
+        """Send a request and return its answer; retried, since reading twice is harmless.
+
+        An answer to an earlier attempt of this call is an answer to this call; answers owed
+        by earlier calls are waited out first (docs/protocol.md, Stale answers).
+        `own_pending`: answers the ID still owes belong to this call too (a broadcast read
+        asking its missing motors again)."""
         attempts = 1 + (self.retries if retries is None else retries)
         cls = answer_class(type(request))
+        rid = request.id
         frame = request.encode()
         answer_len = cls.SPEC.size + 4
-        deadline = self.timing.answer_deadline(
-            len(frame), answer_len, self.baudrate, self.response_times.get(request.id)
-        )
+        response_time = self.response_times.get(rid)
+        deadline = self.timing.answer_deadline(len(frame), answer_len, self.baudrate, response_time)
+        if not own_pending:
+            yield from self._quiet([rid])
         failure: Exception | None = None
+        first_sent: float | None = None
         for attempt in range(1, attempts + 1):
             if attempt > 1:
                 self.stats.retries += 1
                 yield Wait(self.retry_pause)
-            self.stats.dropped_bytes += len((yield Discard()))
-            yield Send(frame)
+            yield from self._wait_until_free([rid])
+            yield from self._discard()
+            sent: Sent = yield Send(frame)
+            first_sent = sent.started if first_sent is None else first_sent
             self.stats.requests += 1
             parser = StreamParser()
             others: list[Message] = []
             while True:
-                data = yield Receive(max(1, answer_len - parser.pending), deadline)
+                data = yield Receive(max(1, answer_len - parser.pending), sent.finished + deadline)
                 frames = parser.feed(data) if data else parser.finish()
                 for message in frames:
-                    if type(message) is cls and message.id == request.id:
+                    if type(message) is cls and message.id == rid:
+                        owed = self._pending.get(rid)
+                        if owed is not None:  # this call still has an answer out: wait for it later
+                            owed.until = max(owed.until, sent.finished + deadline + self.late_answer)
                         self.stats.answers += 1
                         self.stats.dropped_bytes += parser.stats.dropped_bytes
                         return message
-                    if type(message) is type(request) and message.id == request.id:
+                    if type(message) is type(request) and message.id == rid:
                         self.stats.echo_frames += 1
-                    else:
+                    elif not self._settle_frame(message):
                         others.append(message)
                 if not data:
                     break
             self.stats.dropped_bytes += parser.stats.dropped_bytes
-            self.stats.stale_frames += len(others)
-            failure = self._failure(request, attempt, parser, others)
+            self._owe(rid, sent.finished + deadline + self.late_answer)
+            failure = self._failure(request, attempt, parser, others, first_sent)
         self.stats.no_answer += 1
         assert failure is not None
         raise failure
 
-    def _failure(self, request: Request, attempts: int, parser: StreamParser, others: list[Message]) -> Exception:
+    def _failure(
+        self, request: Request, attempts: int, parser: StreamParser, others: list[Message], sent_at: float
+    ) -> Exception:
         name, rid, baud = request.name, request.id, self.baudrate
         if others:
             seen = ", ".join(f"{m.name} from ID {m.id}" for m in others[:3])
@@ -94,34 +276,60 @@ class BusCore:
             if s.bad_checksum:
                 detail += f", {s.bad_checksum} bad checksum{'s' if s.bad_checksum > 1 else ''}"
             return CorruptedAnswer(name, rid, baud, attempts, detail)
+        if self._recently_busy(rid, sent_at):
+            return ControllerBusy(name, rid, baud, attempts, self.window(rid))
         return NoAnswer(name, rid, baud, attempts)
 
     def tell(self, *commands: Command) -> Procedure[None]:
-        """Send commands back to back in one write. Never repeated: commands get no answer, so a
-        repeat could not be told from the first (and a relative move would move twice)."""
-        yield Send(b"".join(c.encode() for c in commands))
+        """Send commands back to back in one write, once every addressed ID's busy window has
+        ended. Never repeated: commands get no answer, so a repeat could not be told from the
+        first (and a relative move would move twice)."""
+        if not commands:
+            return
+        yield from self._wait_until_free({c.id for c in commands})
+        data = b"".join(c.encode() for c in commands)
+        sent: Sent = yield Send(data)
+        self._mark_busy(commands, sent, len(data))
 
     def broadcast_ask(
-        self, request_cls: type[Request], window: float, expect: int | None = None
+        self,
+        request_cls: type[Request],
+        window: float,
+        expect: int | None = None,
+        ids: Sequence[int] | None = None,
     ) -> Procedure[tuple[list[Message], int]]:
         """Send a request to ID 0xFF and collect every answer within `window` seconds
-        (or until `expect` answers from distinct IDs have come).
+        (or until `expect` answers from distinct IDs, or one from each of `ids`, have come).
 
         Outside the document's §17 (which gives requests IDs 0-254 only), but controllers answer
         it each after its own response time: answers collide unless those are staggered.
-        Returns (answers, bytes that formed no frame).
+        With `ids`, only their answers count and each missing one is left owed, for a
+        follow-up ask(..., own_pending=True). Returns (answers, bytes that formed no frame).
         """
         cls = answer_class(request_cls)
-        self.stats.dropped_bytes += len((yield Discard()))
-        yield Send(build_frame(BROADCAST_ID, request_cls.SPEC.mode, b""))
-        parser, answers = StreamParser(), []
+        if ids is not None:
+            expect = len(set(ids))
+            yield from self._quiet(ids)
+        yield from self._wait_until_free([BROADCAST_ID])
+        yield from self._discard()
+        sent: Sent = yield Send(build_frame(BROADCAST_ID, request_cls.SPEC.mode, b""))
+        parser, answers, heard = StreamParser(), list[Message](), set[int]()
+        wanted = None if ids is None else set(ids)
         while True:
-            data = yield Receive(cls.SPEC.size + 4, window)
+            data = yield Receive(cls.SPEC.size + 4, sent.finished + window)
             for message in parser.feed(data) if data else parser.finish():
-                if type(message) is cls:
+                if type(message) is cls and (wanted is None or message.id in wanted) and message.id not in heard:
                     answers.append(message)
-            if not data or (expect is not None and len({a.id for a in answers}) >= expect):
-                return answers, parser.stats.dropped_bytes
+                    heard.add(message.id)
+                elif not isinstance(message, Request):
+                    self._settle_frame(message)
+            if not data or (expect is not None and len(heard) >= expect):
+                break
+        if wanted is not None:
+            for missing in wanted - heard:
+                self._owe(missing, sent.finished + window + self.late_answer)
+        self.stats.dropped_bytes += parser.stats.dropped_bytes
+        return answers, parser.stats.dropped_bytes
 
     def set_baud(self, rate: int) -> Procedure[None]:
         yield SetBaud(rate)

@@ -19,6 +19,7 @@ from ..protocol import BAUD_RATES, FieldRangeError
 from ..settings import SETTINGS, setting
 
 MAX_STEP_SECONDS = 10.0
+LARGEST = 1e9  # no field of any command comes near this; larger numbers are refused before any arithmetic
 
 
 class CommandError(ValueError):
@@ -97,6 +98,39 @@ class EmergencyStop:
 
 
 @dataclass(frozen=True, slots=True)
+class SetZero:
+    id: int  # the current position becomes the device's zero (§15)
+
+
+@dataclass(frozen=True, slots=True)
+class ChangeId:
+    id: int
+    new_id: int
+
+
+@dataclass(frozen=True, slots=True)
+class ChangeBaud:
+    id: int
+    baudrate: int
+
+
+@dataclass(frozen=True, slots=True)
+class FactoryReset:
+    id: int
+
+
+@dataclass(frozen=True, slots=True)
+class Ports:
+    pass
+
+
+@dataclass(frozen=True, slots=True)
+class OpenBus:
+    port: str
+    baudrate: int
+
+
+@dataclass(frozen=True, slots=True)
 class Frames:
     on: bool
 
@@ -115,6 +149,12 @@ Command = (
     | Restore
     | EmergencyStop
     | Frames
+    | SetZero
+    | ChangeId
+    | ChangeBaud
+    | FactoryReset
+    | Ports
+    | OpenBus
 )
 
 _checker = MotorProcedures(BusCore(), 1)  # its builders only check ranges; it never touches a bus
@@ -130,9 +170,20 @@ def _number(message: dict[str, Any], name: str, default: float | None = None) ->
     value = message.get(name, default)
     if value is None:
         raise CommandError(f"{message.get('op')}: missing {name!r}")
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise CommandError(f"{message.get('op')}: {name} must be a number, got {value!r}")
-    return float(value)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise CommandError(f"{message.get('op')}: {name} must be a number, got {_show(value)}")
+    try:
+        result = float(value)
+    except OverflowError:  # an integer too large for a float
+        raise CommandError(f"{message.get('op')}: {name} is out of range, got {_show(value)}") from None
+    if not math.isfinite(result) or abs(result) > LARGEST:
+        raise CommandError(f"{message.get('op')}: {name} must be a number (finite, in range), got {_show(value)}")
+    return result
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _optional_number(message: dict[str, Any], name: str) -> float | None:
@@ -142,7 +193,7 @@ def _optional_number(message: dict[str, Any], name: str) -> float | None:
 def _device_id(message: dict[str, Any]) -> int:
     value = _field(message, "id")
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 254:
-        raise CommandError(f"{message.get('op')}: id must be a controller ID 0..254, got {value!r}")
+        raise CommandError(f"{message.get('op')}: id must be a controller ID 0..254, got {_show(value)}")
     return value
 
 
@@ -153,13 +204,13 @@ def _ids(message: dict[str, Any]) -> tuple[int, ...]:
     return tuple(_device_id({"op": message.get("op"), "id": v}) for v in values)
 
 
-def _ranges(check: Any) -> None:
+def _ranges(check: Any, what: str = "") -> None:
     try:
         check()
-    except FieldRangeError as error:
+    except (FieldRangeError, ValueError) as error:
         raise CommandError(str(error)) from None
-    except ValueError as error:
-        raise CommandError(str(error)) from None
+    except (ArithmeticError, TypeError):  # e.g. a huge or non-finite number that reached the unit arithmetic
+        raise CommandError(f"{what or 'value'}: not a valid value") from None
 
 
 def _move(m: dict[str, Any]) -> Move:
@@ -168,6 +219,10 @@ def _move(m: dict[str, Any]) -> Move:
     relative = m.get("relative", False)
     if not isinstance(relative, bool):
         raise CommandError("move: relative must be true or false")
+    if rpm is not None and rpm <= 0:
+        raise CommandError(f"move: rpm must be above 0, got {rpm:g} (the direction comes from the target)")
+    if seconds is not None and seconds <= 0:
+        raise CommandError(f"move: seconds must be above 0, got {seconds:g}")
     _ranges(lambda: _checker.make_move_to(degrees, rpm, seconds))
     return Move(device_id, degrees, rpm, seconds, relative)
 
@@ -182,21 +237,31 @@ def _write_setting(m: dict[str, Any]) -> WriteSetting:
     device_id, name, value = _device_id(m), _field(m, "name"), _field(m, "value")
     if not isinstance(name, str):
         raise CommandError(f"set: name must be a setting name, got {name!r}")
-    if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise CommandError(f"set: value must be a number or a word, got {value!r}")
     try:
         s = setting(name)
     except KeyError as error:
         raise CommandError(str(error.args[0])) from None
     if s.command is None:
         raise CommandError(f"{s.name} is read-only")
-    _ranges(lambda: s.to_wire(value))
-    return WriteSetting(device_id, s.name, value)
+    return WriteSetting(device_id, s.name, _setting_value(s, value, "set"))
+
+
+def _setting_value(s: Any, value: Any, op: str) -> Any:
+    """A setting's value: a word from its choices, or a finite number in its range (never text as a number)."""
+    if s.spec.values:
+        if not isinstance(value, str):
+            raise CommandError(f"{op}: {s.name} must be one of {s.describe_range()}, got {_show(value)}")
+    else:
+        _number({"op": op, s.name: value}, s.name)
+    _ranges(lambda: s.to_wire(value), f"{op}: {s.name} = {_show(value)}")
+    return value
 
 
 def _step(m: dict[str, Any]) -> Step:
     device_id, amplitude = _device_id(m), _number(m, "amplitude")
     rpm, duration = _number(m, "rpm", 60.0), _number(m, "duration", 2.0)
+    if rpm <= 0:
+        raise CommandError(f"step: rpm must be above 0, got {rpm:g}")
     if amplitude == 0:
         raise CommandError("step: amplitude must not be 0 degrees")
     if not 0.2 <= duration <= MAX_STEP_SECONDS:
@@ -221,7 +286,7 @@ def check_backup(document: Any) -> dict[str, Any]:
             if s is None:
                 raise CommandError(f"restore: ID {device_id} has unknown setting {name!r}")
             if s.command is not None and name != "control":
-                _ranges(lambda s=s, value=value: s.to_wire(value))
+                _setting_value(s, value, f"restore: ID {device_id}")
     return document
 
 
@@ -241,6 +306,38 @@ def _frames(m: dict[str, Any]) -> Frames:
     return Frames(on)
 
 
+def _change_id(m: dict[str, Any]) -> ChangeId:
+    device_id = _device_id(m)
+    new_id = _device_id({"op": "change_id", "id": _field(m, "new_id")})
+    if new_id == device_id:
+        raise CommandError(f"change_id: ID {device_id} already has that ID")
+    return ChangeId(device_id, new_id)
+
+
+def _change_baud(m: dict[str, Any]) -> ChangeBaud:
+    rate = _field(m, "baudrate")
+    if isinstance(rate, bool) or rate not in BAUD_RATES:
+        raise CommandError(f"change_baud: baudrate must be one of {', '.join(map(str, BAUD_RATES))}")
+    return ChangeBaud(_device_id(m), int(rate))
+
+
+def _open_bus(m: dict[str, Any]) -> OpenBus:
+    port, rate = _field(m, "port"), _field(m, "baudrate")
+    if not isinstance(port, str) or not port.strip() or len(port) > 200:
+        raise CommandError("open_bus: port must be a device path or URL, e.g. /dev/ttyUSB0")
+    if isinstance(rate, bool) or rate not in BAUD_RATES:
+        raise CommandError(f"open_bus: baudrate must be one of {', '.join(map(str, BAUD_RATES))}")
+    return OpenBus(port.strip(), int(rate))
+
+
+def _factory_reset(m: dict[str, Any]) -> FactoryReset:
+    device_id = _device_id(m)
+    expected = f"RESET {device_id}"
+    if m.get("confirm") != expected:
+        raise CommandError(f"factory_reset: erases every setting of ID {device_id}; confirm by typing {expected!r}")
+    return FactoryReset(device_id)
+
+
 _PARSERS: dict[str, Any] = {
     "discover": _discover,
     "watch": lambda m: Watch(_ids(m)),
@@ -255,7 +352,23 @@ _PARSERS: dict[str, Any] = {
     "restore": lambda m: Restore(check_backup(_field(m, "document"))),
     "estop": lambda m: EmergencyStop(),
     "frames": _frames,
+    "set_zero": lambda m: SetZero(_device_id(m)),
+    "change_id": _change_id,
+    "change_baud": _change_baud,
+    "factory_reset": _factory_reset,
+    "ports": lambda m: Ports(),
+    "open_bus": _open_bus,
 }
+
+
+def generation_of(message: Any) -> int | None:
+    """The emergency-stop generation a page says it had seen when it sent the message, if any."""
+    gen = message.get("gen") if isinstance(message, dict) else None
+    if gen is None:
+        return None
+    if isinstance(gen, bool) or not isinstance(gen, int) or gen < 0:
+        raise CommandError(f"gen must be a whole number >= 0, got {_show(gen)}")
+    return gen
 
 
 def parse(message: Any) -> Command:
@@ -265,7 +378,7 @@ def parse(message: Any) -> Command:
     op = message.get("op")
     parser = _PARSERS.get(op) if isinstance(op, str) else None
     if parser is None:
-        raise CommandError(f"unknown op {op!r}; ops: {', '.join(_PARSERS)}")
+        raise CommandError(f"unknown op {_show(op)}; ops: {', '.join(_PARSERS)}")
     command: Command = parser(message)
     return command
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+from collections import deque
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +33,10 @@ MISSING_ASSETS = (
     "run `bash scripts/dashboard-assets.sh` (or `make dashboard`) in the nurimc source tree"
 )
 FLUSH_SECONDS = 0.02  # samples and frames go out in batches 50 times a second
-CLIENT_QUEUE = 256  # messages waiting for a slow page before its live data is dropped
+LIVE_QUEUE = 256  # live-data messages waiting for a slow page before the oldest are dropped
+REPLY_BACKLOG = 1024  # replies and events waiting for a page before its messages stop being read
+MAX_NESTING = 32  # deeper JSON is refused before it is decoded
+LIVE_EVENTS = {"samples", "frames"}
 POLICY_VIOLATION = 1008
 
 
@@ -43,6 +47,7 @@ class DashboardConfig:
     policy: SecurityPolicy
     product: str = "mc"
     sim: bool = False
+    port: str = ""
     on_ready: Callable[[], None] | None = None
 
 
@@ -78,17 +83,59 @@ class GuardMiddleware:
             await PlainTextResponse(text, status_code=status)(scope, receive, send)
 
 
-class Hub:
-    """The connected pages: each gets its own queue so one slow page cannot stall the others."""
+class Outbox:
+    """What goes out to one page. Replies and events are never dropped: the page's reading is
+    paused instead (backpressure) while too many wait. Live data (samples, frames) is dropped,
+    oldest first, for a page too slow to take it."""
 
     def __init__(self) -> None:
-        self.queues: set[asyncio.Queue[str]] = set()
+        self.must: deque[str] = deque()
+        self.live: deque[str] = deque(maxlen=LIVE_QUEUE)
+        self.live_dropped = 0
+        self._ready = asyncio.Event()
+
+    def put(self, text: str) -> None:
+        self.must.append(text)
+        self._ready.set()
+
+    def put_live(self, text: str) -> None:
+        if len(self.live) == self.live.maxlen:
+            self.live_dropped += 1
+        self.live.append(text)
+        self._ready.set()
+
+    async def get(self) -> str:
+        while not self.must and not self.live:
+            self._ready.clear()
+            await self._ready.wait()
+        return self.must.popleft() if self.must else self.live.popleft()
+
+    async def room(self) -> None:
+        """Wait while the page has not taken its earlier replies (it stops being read meanwhile)."""
+        while len(self.must) > REPLY_BACKLOG:
+            await asyncio.sleep(0.005)
+
+
+class Hub:
+    """The connected pages: each has its own outbox so one slow page cannot stall the others."""
+
+    def __init__(self) -> None:
+        self.outboxes: set[Outbox] = set()
 
     def broadcast(self, event: dict[str, Any]) -> None:
-        text = json.dumps(event)
-        for queue in self.queues:
-            with contextlib.suppress(asyncio.QueueFull):  # a stalled page misses live data, not replies
-                queue.put_nowait(text)
+        text = json.dumps(event, default=str)
+        live = event.get("type") in LIVE_EVENTS
+        for box in self.outboxes:
+            (box.put_live if live else box.put)(text)
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a number this console accepts (give a finite number)")
+
+
+def decode(text: str) -> Any:
+    """JSON as the page must send it: no NaN/Infinity, bounded nesting (RecursionError otherwise)."""
+    return json.loads(text, parse_constant=_reject_constant)
 
 
 def create_app(config: DashboardConfig) -> Starlette:
@@ -116,7 +163,7 @@ def create_app(config: DashboardConfig) -> Starlette:
         def publish(event: dict[str, Any]) -> None:  # called from the bus thread
             loop.call_soon_threadsafe(hub.broadcast, event)
 
-        w = BusWorker(config.bus, config.product, publish)
+        w = BusWorker(config.bus, config.product, publish, config.port, config.tap)
         state["worker"] = w
         w.start()
         flusher = asyncio.create_task(flush())
@@ -146,8 +193,11 @@ def create_app(config: DashboardConfig) -> Starlette:
                 "version": __version__,
                 "sim": config.sim,
                 "product": config.product,
-                "baudrate": config.bus.baudrate,
+                "baudrate": w.bus.baudrate,
+                "port": w.port,
                 "known": {str(k): v for k, v in w.known.items()},
+                "motors": w.motor_list(),
+                "generation": w.generation,
                 "reads": w.reads,
                 "settings": c.settings_catalogue(),
             }
@@ -158,29 +208,36 @@ def create_app(config: DashboardConfig) -> Starlette:
             await websocket.close(code=POLICY_VIOLATION, reason="cross-origin websocket refused")
             return
         await websocket.accept()
-        queue: asyncio.Queue[str] = asyncio.Queue(CLIENT_QUEUE)
-        hub.queues.add(queue)
+        box = Outbox()
+        w = worker()
+        box.put(json.dumps(hello(w)))
+        hub.outboxes.add(box)
         loop = asyncio.get_running_loop()
-
-        def reply_to(req: Any) -> Callable[[Any, str | None], None]:
-            def done(result: Any, error: str | None) -> None:
-                message = {"type": "reply", "req": req, "ok": error is None, "result": result, "error": error}
-                loop.call_soon_threadsafe(queue.put_nowait, json.dumps(message, default=str))
-
-            return done
 
         async def send_loop() -> None:
             while True:
-                await websocket.send_text(await queue.get())
+                await websocket.send_text(await box.get())
 
         sender = asyncio.create_task(send_loop())
         try:
-            await _receive_loop(websocket, config, worker, queue, reply_to)
+            await _receive_loop(websocket, config, w, box, loop)
         except WebSocketDisconnect:
             pass
         finally:
             sender.cancel()
-            hub.queues.discard(queue)
+            hub.outboxes.discard(box)
+            w.forget(box)
+
+    def hello(w: BusWorker) -> dict[str, Any]:
+        return {
+            "type": "hello",
+            "generation": w.generation,
+            "motors": w.motor_list(),
+            "watching": list(w.watched),
+            "sim": config.sim,
+            "baudrate": w.bus.baudrate,
+            "port": w.port,
+        }
 
     routes = [
         Route("/", index),
@@ -193,29 +250,86 @@ def create_app(config: DashboardConfig) -> Starlette:
     return app
 
 
+def _reply(req: Any, result: Any, error: str | None) -> str:
+    message = {"type": "reply", "req": req, "ok": error is None, "result": result, "error": error}
+    return json.dumps(message, default=str)
+
+
+def _request_id(message: Any) -> Any:
+    """The page's request number, echoed only if it is a plain number or short text."""
+    req = message.get("req") if isinstance(message, dict) else None
+    if isinstance(req, bool) or not isinstance(req, int | str) or (isinstance(req, str) and len(req) > 64):
+        return None
+    return req
+
+
+def _too_deep(text: str) -> bool:
+    depth = deepest = 0
+    in_string = escaped = False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+            if deepest > MAX_NESTING:
+                return True
+        elif ch in "]}":
+            depth -= 1
+    return False
+
+
 async def _receive_loop(
     websocket: WebSocket,
     config: DashboardConfig,
-    worker: Callable[[], BusWorker],
-    queue: asyncio.Queue[str],
-    reply_to: Callable[[Any], Callable[[Any, str | None], None]],
+    worker: BusWorker,
+    box: Outbox,
+    loop: asyncio.AbstractEventLoop,
 ) -> None:
+    """Every message gets exactly one reply; a bad one gets an error reply and the connection stays open."""
     while True:
-        text = await websocket.receive_text()
+        await box.room()
+        event = await websocket.receive()
+        if event["type"] == "websocket.disconnect":
+            raise WebSocketDisconnect(event.get("code", 1000))
+        text = event.get("text")
+        if text is None:
+            box.put(_reply(None, None, "binary messages are not understood: send JSON text"))
+            continue
         req: Any = None
         try:
-            message = json.loads(text)
-            req = message.get("req") if isinstance(message, dict) else None
+            if _too_deep(text):
+                raise c.CommandError(f"message nested deeper than {MAX_NESTING} levels")
+            message = decode(text)
+            req = _request_id(message)
             command = c.parse(message)
-        except (json.JSONDecodeError, c.CommandError) as error:
-            reason = f"not JSON: {error}" if isinstance(error, json.JSONDecodeError) else str(error)
-            await websocket.send_text(json.dumps({"type": "reply", "req": req, "ok": False, "error": reason}))
+            generation = c.generation_of(message)
+        except json.JSONDecodeError as error:
+            box.put(_reply(req, None, f"not JSON: {error}"))
+            continue
+        except (c.CommandError, ValueError, RecursionError, ArithmeticError, TypeError) as error:
+            plain = isinstance(error, c.CommandError | ValueError)
+            reason = str(error) if plain else f"refused: {type(error).__name__}"
+            box.put(_reply(req, None, reason))
+            continue
+        except Exception as error:  # never let one message close the page's connection
+            box.put(_reply(req, None, f"internal error: {type(error).__name__}: {error}"))
             continue
         if isinstance(command, c.Frames):  # the raw view: no bus work, just whether frames are queued
             config.tap.enabled = command.on
             recent = list(config.tap.recent) if command.on else []
-            await websocket.send_text(
-                json.dumps({"type": "reply", "req": req, "ok": True, "result": {"recent": recent}})
-            )
+            box.put(_reply(req, {"recent": recent}, None))
             continue
-        worker().submit(command, reply_to(req))
+
+        def done(result: Any, error: str | None, req: Any = req) -> None:  # from the bus thread
+            text = _reply(req, result, error)
+            loop.call_soon_threadsafe(box.put, text)
+
+        worker.submit(command, done, owner=box, generation=generation)

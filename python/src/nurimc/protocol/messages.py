@@ -4,15 +4,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar, Self
 
 from ._tables import SPECS
-from .message import Answer, Command, Message, Request
+from .message import Answer, Command, Message, Request, field_getter
 from .schema import MessageSpec
 
+_new = tuple.__new__  # builds the (id, *fields) tuple of a message class in one C call
 
-@dataclass(frozen=True, slots=True)
+
 class PositionSpeed(Command):
     """§1 position and speed control (mode 0x01, size 7).
 
@@ -21,14 +21,23 @@ class PositionSpeed(Command):
     speed: 1..65533 [0.1 rpm]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['position_speed']
-    id: int
-    direction: int
-    position: int
-    speed: int
+    __match_args__ = ('id', 'direction', 'position', 'speed')
+
+    if TYPE_CHECKING:
+        direction: int
+        position: int
+        speed: int
+    else:
+        direction = field_getter(1, 'direction')
+        position = field_getter(2, 'position')
+        speed = field_getter(3, 'speed')
+
+    def __new__(cls, id: int, direction: int, position: int, speed: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction, position, speed))
 
 
-@dataclass(frozen=True, slots=True)
 class AccelPosition(Command):
     """§2 position control with acceleration (reach the position in a given time) (mode 0x02, size 6).
 
@@ -37,14 +46,23 @@ class AccelPosition(Command):
     arrival_time: 1..255 [0.1 s]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['accel_position']
-    id: int
-    direction: int
-    position: int
-    arrival_time: int
+    __match_args__ = ('id', 'direction', 'position', 'arrival_time')
+
+    if TYPE_CHECKING:
+        direction: int
+        position: int
+        arrival_time: int
+    else:
+        direction = field_getter(1, 'direction')
+        position = field_getter(2, 'position')
+        arrival_time = field_getter(3, 'arrival_time')
+
+    def __new__(cls, id: int, direction: int, position: int, arrival_time: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction, position, arrival_time))
 
 
-@dataclass(frozen=True, slots=True)
 class AccelSpeed(Command):
     """§3 speed control with acceleration (reach the speed in a given time) (mode 0x03, size 6).
 
@@ -53,14 +71,23 @@ class AccelSpeed(Command):
     arrival_time: 1..255 [0.1 s]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['accel_speed']
-    id: int
-    direction: int
-    speed: int
-    arrival_time: int
+    __match_args__ = ('id', 'direction', 'speed', 'arrival_time')
+
+    if TYPE_CHECKING:
+        direction: int
+        speed: int
+        arrival_time: int
+    else:
+        direction = field_getter(1, 'direction')
+        speed = field_getter(2, 'speed')
+        arrival_time = field_getter(3, 'arrival_time')
+
+    def __new__(cls, id: int, direction: int, speed: int, arrival_time: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction, speed, arrival_time))
 
 
-@dataclass(frozen=True, slots=True)
 class SetPositionGains(Command):
     """§4 position controller settings (mode 0x04, size 6).
 
@@ -70,15 +97,25 @@ class SetPositionGains(Command):
     rated_current: 1..254 [0.1 A]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_position_gains']
-    id: int
-    kp: int
-    ki: int
-    kd: int
-    rated_current: int
+    __match_args__ = ('id', 'kp', 'ki', 'kd', 'rated_current')
+
+    if TYPE_CHECKING:
+        kp: int
+        ki: int
+        kd: int
+        rated_current: int
+    else:
+        kp = field_getter(1, 'kp')
+        ki = field_getter(2, 'ki')
+        kd = field_getter(3, 'kd')
+        rated_current = field_getter(4, 'rated_current')
+
+    def __new__(cls, id: int, kp: int, ki: int, kd: int, rated_current: int) -> Self:  # noqa: A002
+        return _new(cls, (id, kp, ki, kd, rated_current))
 
 
-@dataclass(frozen=True, slots=True)
 class SetSpeedGains(Command):
     """§5 speed controller settings (mode 0x05, size 6).
 
@@ -88,293 +125,414 @@ class SetSpeedGains(Command):
     rated_current: 1..254 [0.1 A]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_speed_gains']
-    id: int
-    kp: int
-    ki: int
-    kd: int
-    rated_current: int
+    __match_args__ = ('id', 'kp', 'ki', 'kd', 'rated_current')
+
+    if TYPE_CHECKING:
+        kp: int
+        ki: int
+        kd: int
+        rated_current: int
+    else:
+        kp = field_getter(1, 'kp')
+        ki = field_getter(2, 'ki')
+        kd = field_getter(3, 'kd')
+        rated_current = field_getter(4, 'rated_current')
+
+    def __new__(cls, id: int, kp: int, ki: int, kd: int, rated_current: int) -> Self:  # noqa: A002
+        return _new(cls, (id, kp, ki, kd, rated_current))
 
 
-@dataclass(frozen=True, slots=True)
 class SetId(Command):
     """§6 set ID (mode 0x06, size 3).
 
     new_id: 0..254
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_id']
-    id: int
-    new_id: int
+    __match_args__ = ('id', 'new_id')
+
+    if TYPE_CHECKING:
+        new_id: int
+    else:
+        new_id = field_getter(1, 'new_id')
+
+    def __new__(cls, id: int, new_id: int) -> Self:  # noqa: A002
+        return _new(cls, (id, new_id))
 
 
-@dataclass(frozen=True, slots=True)
 class SetBaud(Command):
     """§7 set baud rate (mode 0x07, size 3).
 
     baud_index: 0..17
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_baud']
-    id: int
-    baud_index: int
+    __match_args__ = ('id', 'baud_index')
+
+    if TYPE_CHECKING:
+        baud_index: int
+    else:
+        baud_index = field_getter(1, 'baud_index')
+
+    def __new__(cls, id: int, baud_index: int) -> Self:  # noqa: A002
+        return _new(cls, (id, baud_index))
 
 
-@dataclass(frozen=True, slots=True)
 class SetResponseTime(Command):
     """§8 set response time (mode 0x08, size 3).
 
     response_time: 0..254 [100 us]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_response_time']
-    id: int
-    response_time: int
+    __match_args__ = ('id', 'response_time')
+
+    if TYPE_CHECKING:
+        response_time: int
+    else:
+        response_time = field_getter(1, 'response_time')
+
+    def __new__(cls, id: int, response_time: int) -> Self:  # noqa: A002
+        return _new(cls, (id, response_time))
 
 
-@dataclass(frozen=True, slots=True)
 class SetRatedSpeed(Command):
     """§9 set motor rated speed (mode 0x09, size 4).
 
     rated_speed: 1..65533 [1 rpm]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_rated_speed']
-    id: int
-    rated_speed: int
+    __match_args__ = ('id', 'rated_speed')
+
+    if TYPE_CHECKING:
+        rated_speed: int
+    else:
+        rated_speed = field_getter(1, 'rated_speed')
+
+    def __new__(cls, id: int, rated_speed: int) -> Self:  # noqa: A002
+        return _new(cls, (id, rated_speed))
 
 
-@dataclass(frozen=True, slots=True)
 class SetResolution(Command):
     """§10 set resolution (mode 0x0A, size 4).
 
     resolution: 1..65533 [1 count]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_resolution']
-    id: int
-    resolution: int
+    __match_args__ = ('id', 'resolution')
+
+    if TYPE_CHECKING:
+        resolution: int
+    else:
+        resolution = field_getter(1, 'resolution')
+
+    def __new__(cls, id: int, resolution: int) -> Self:  # noqa: A002
+        return _new(cls, (id, resolution))
 
 
-@dataclass(frozen=True, slots=True)
 class SetRatio(Command):
     """§11 set reduction ratio (mode 0x0B, size 4).
 
     ratio: 1..65533 [0.1 ratio]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_ratio']
-    id: int
-    ratio: int
+    __match_args__ = ('id', 'ratio')
+
+    if TYPE_CHECKING:
+        ratio: int
+    else:
+        ratio = field_getter(1, 'ratio')
+
+    def __new__(cls, id: int, ratio: int) -> Self:  # noqa: A002
+        return _new(cls, (id, ratio))
 
 
-@dataclass(frozen=True, slots=True)
 class SetControl(Command):
     """§12 control on/off (mode 0x0C, size 3).
 
     control: 0..1
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_control']
-    id: int
-    control: int
+    __match_args__ = ('id', 'control')
+
+    if TYPE_CHECKING:
+        control: int
+    else:
+        control = field_getter(1, 'control')
+
+    def __new__(cls, id: int, control: int) -> Self:  # noqa: A002
+        return _new(cls, (id, control))
 
 
-@dataclass(frozen=True, slots=True)
 class SetPositionMode(Command):
     """§13 position control mode (mode 0x0D, size 3).
 
     position_mode: 0..1
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_position_mode']
-    id: int
-    position_mode: int
+    __match_args__ = ('id', 'position_mode')
+
+    if TYPE_CHECKING:
+        position_mode: int
+    else:
+        position_mode = field_getter(1, 'position_mode')
+
+    def __new__(cls, id: int, position_mode: int) -> Self:  # noqa: A002
+        return _new(cls, (id, position_mode))
 
 
-@dataclass(frozen=True, slots=True)
 class SetDirection(Command):
     """§14 control direction (mode 0x0E, size 3).
 
     direction: 0..1
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['set_direction']
-    id: int
-    direction: int
+    __match_args__ = ('id', 'direction')
+
+    if TYPE_CHECKING:
+        direction: int
+    else:
+        direction = field_getter(1, 'direction')
+
+    def __new__(cls, id: int, direction: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction))
 
 
-@dataclass(frozen=True, slots=True)
 class ResetPosition(Command):
     """§15 position reset (the current position becomes zero) (mode 0x0F, size 2).
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['reset_position']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class FactoryReset(Command):
     """§16 factory reset (mode 0x10, size 2).
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['factory_reset']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestPing(Request):
     """§17 request ping (mode 0xA0, size 2).
 
     Answered by Ping.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_ping']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestPosition(Request):
     """§17 request position feedback (mode 0xA1, size 2).
 
     Answered by PositionFeedback.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_position']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestSpeed(Request):
     """§17 request speed feedback (mode 0xA2, size 2).
 
     Answered by SpeedFeedback.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_speed']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestPositionGains(Request):
     """§17 request position controller settings (mode 0xA3, size 2).
 
     Answered by PositionGains.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_position_gains']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestSpeedGains(Request):
     """§17 request speed controller settings (mode 0xA4, size 2).
 
     Answered by SpeedGains.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_speed_gains']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestResponseTime(Request):
     """§17 request response time (mode 0xA5, size 2).
 
     Answered by ResponseTime.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_response_time']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestRatedSpeed(Request):
     """§17 request motor rated speed (mode 0xA6, size 2).
 
     Answered by RatedSpeed.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_rated_speed']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestResolution(Request):
     """§17 request resolution (mode 0xA7, size 2).
 
     Answered by Resolution.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_resolution']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestRatio(Request):
     """§17 request reduction ratio (mode 0xA8, size 2).
 
     Answered by Ratio.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_ratio']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestControl(Request):
     """§17 request control on/off (mode 0xA9, size 2).
 
     Answered by Control.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_control']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestPositionMode(Request):
     """§17 request position control mode (mode 0xAA, size 2).
 
     Answered by PositionMode.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_position_mode']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestDirection(Request):
     """§17 request control direction (mode 0xAB, size 2).
 
     Answered by Direction.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_direction']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class RequestFirmware(Request):
     """§17 request firmware version (mode 0xCD, size 2).
 
     Answered by Firmware.
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['request_firmware']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class Ping(Answer):
     """§18 ping (mode 0xD0, size 2).
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['ping']
-    id: int
+    __match_args__ = ('id',)
+
+    def __new__(cls, id: int) -> Self:  # noqa: A002
+        return _new(cls, (id,))
 
 
-@dataclass(frozen=True, slots=True)
 class PositionFeedback(Answer):
     """§19 position feedback (mode 0xD1, size 8).
 
@@ -384,15 +542,25 @@ class PositionFeedback(Answer):
     current: 0..254 [0.1 A]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['position_feedback']
-    id: int
-    direction: int
-    position: int
-    speed: int
-    current: int
+    __match_args__ = ('id', 'direction', 'position', 'speed', 'current')
+
+    if TYPE_CHECKING:
+        direction: int
+        position: int
+        speed: int
+        current: int
+    else:
+        direction = field_getter(1, 'direction')
+        position = field_getter(2, 'position')
+        speed = field_getter(3, 'speed')
+        current = field_getter(4, 'current')
+
+    def __new__(cls, id: int, direction: int, position: int, speed: int, current: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction, position, speed, current))
 
 
-@dataclass(frozen=True, slots=True)
 class SpeedFeedback(Answer):
     """§20 speed feedback (mode 0xD2, size 8).
 
@@ -402,15 +570,25 @@ class SpeedFeedback(Answer):
     current: 0..254 [0.1 A]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['speed_feedback']
-    id: int
-    direction: int
-    speed: int
-    position: int
-    current: int
+    __match_args__ = ('id', 'direction', 'speed', 'position', 'current')
+
+    if TYPE_CHECKING:
+        direction: int
+        speed: int
+        position: int
+        current: int
+    else:
+        direction = field_getter(1, 'direction')
+        speed = field_getter(2, 'speed')
+        position = field_getter(3, 'position')
+        current = field_getter(4, 'current')
+
+    def __new__(cls, id: int, direction: int, speed: int, position: int, current: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction, speed, position, current))
 
 
-@dataclass(frozen=True, slots=True)
 class PositionGains(Answer):
     """§21 position controller settings (mode 0xD3, size 6).
 
@@ -420,15 +598,25 @@ class PositionGains(Answer):
     rated_current: 1..254 [0.1 A]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['position_gains']
-    id: int
-    kp: int
-    ki: int
-    kd: int
-    rated_current: int
+    __match_args__ = ('id', 'kp', 'ki', 'kd', 'rated_current')
+
+    if TYPE_CHECKING:
+        kp: int
+        ki: int
+        kd: int
+        rated_current: int
+    else:
+        kp = field_getter(1, 'kp')
+        ki = field_getter(2, 'ki')
+        kd = field_getter(3, 'kd')
+        rated_current = field_getter(4, 'rated_current')
+
+    def __new__(cls, id: int, kp: int, ki: int, kd: int, rated_current: int) -> Self:  # noqa: A002
+        return _new(cls, (id, kp, ki, kd, rated_current))
 
 
-@dataclass(frozen=True, slots=True)
 class SpeedGains(Answer):
     """§22 speed controller settings (mode 0xD4, size 6).
 
@@ -438,109 +626,175 @@ class SpeedGains(Answer):
     rated_current: 1..254 [0.1 A]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['speed_gains']
-    id: int
-    kp: int
-    ki: int
-    kd: int
-    rated_current: int
+    __match_args__ = ('id', 'kp', 'ki', 'kd', 'rated_current')
+
+    if TYPE_CHECKING:
+        kp: int
+        ki: int
+        kd: int
+        rated_current: int
+    else:
+        kp = field_getter(1, 'kp')
+        ki = field_getter(2, 'ki')
+        kd = field_getter(3, 'kd')
+        rated_current = field_getter(4, 'rated_current')
+
+    def __new__(cls, id: int, kp: int, ki: int, kd: int, rated_current: int) -> Self:  # noqa: A002
+        return _new(cls, (id, kp, ki, kd, rated_current))
 
 
-@dataclass(frozen=True, slots=True)
 class ResponseTime(Answer):
     """§23 response time (mode 0xD5, size 3).
 
     response_time: 0..254 [100 us]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['response_time']
-    id: int
-    response_time: int
+    __match_args__ = ('id', 'response_time')
+
+    if TYPE_CHECKING:
+        response_time: int
+    else:
+        response_time = field_getter(1, 'response_time')
+
+    def __new__(cls, id: int, response_time: int) -> Self:  # noqa: A002
+        return _new(cls, (id, response_time))
 
 
-@dataclass(frozen=True, slots=True)
 class RatedSpeed(Answer):
     """§24 motor rated speed (mode 0xD6, size 4).
 
     rated_speed: 1..65533 [1 rpm]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['rated_speed']
-    id: int
-    rated_speed: int
+    __match_args__ = ('id', 'rated_speed')
+
+    if TYPE_CHECKING:
+        rated_speed: int
+    else:
+        rated_speed = field_getter(1, 'rated_speed')
+
+    def __new__(cls, id: int, rated_speed: int) -> Self:  # noqa: A002
+        return _new(cls, (id, rated_speed))
 
 
-@dataclass(frozen=True, slots=True)
 class Resolution(Answer):
     """§25 resolution (mode 0xD7, size 4).
 
     resolution: 1..65533 [1 count]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['resolution']
-    id: int
-    resolution: int
+    __match_args__ = ('id', 'resolution')
+
+    if TYPE_CHECKING:
+        resolution: int
+    else:
+        resolution = field_getter(1, 'resolution')
+
+    def __new__(cls, id: int, resolution: int) -> Self:  # noqa: A002
+        return _new(cls, (id, resolution))
 
 
-@dataclass(frozen=True, slots=True)
 class Ratio(Answer):
     """§26 reduction ratio (mode 0xD8, size 4).
 
     ratio: 1..65533 [0.1 ratio]
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['ratio']
-    id: int
-    ratio: int
+    __match_args__ = ('id', 'ratio')
+
+    if TYPE_CHECKING:
+        ratio: int
+    else:
+        ratio = field_getter(1, 'ratio')
+
+    def __new__(cls, id: int, ratio: int) -> Self:  # noqa: A002
+        return _new(cls, (id, ratio))
 
 
-@dataclass(frozen=True, slots=True)
 class Control(Answer):
     """§27 control on/off (mode 0xD9, size 3).
 
     control: 0..1
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['control']
-    id: int
-    control: int
+    __match_args__ = ('id', 'control')
+
+    if TYPE_CHECKING:
+        control: int
+    else:
+        control = field_getter(1, 'control')
+
+    def __new__(cls, id: int, control: int) -> Self:  # noqa: A002
+        return _new(cls, (id, control))
 
 
-@dataclass(frozen=True, slots=True)
 class PositionMode(Answer):
     """§28 position control mode (mode 0xDA, size 3).
 
     position_mode: 0..1
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['position_mode']
-    id: int
-    position_mode: int
+    __match_args__ = ('id', 'position_mode')
+
+    if TYPE_CHECKING:
+        position_mode: int
+    else:
+        position_mode = field_getter(1, 'position_mode')
+
+    def __new__(cls, id: int, position_mode: int) -> Self:  # noqa: A002
+        return _new(cls, (id, position_mode))
 
 
-@dataclass(frozen=True, slots=True)
 class Direction(Answer):
     """§29 control direction (mode 0xDB, size 3).
 
     direction: 0..1
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['direction']
-    id: int
-    direction: int
+    __match_args__ = ('id', 'direction')
+
+    if TYPE_CHECKING:
+        direction: int
+    else:
+        direction = field_getter(1, 'direction')
+
+    def __new__(cls, id: int, direction: int) -> Self:  # noqa: A002
+        return _new(cls, (id, direction))
 
 
-@dataclass(frozen=True, slots=True)
 class Firmware(Answer):
     """§30 firmware version (mode 0xFD, size 3).
 
     version: 0..255
     """
 
+    __slots__ = ()
     SPEC: ClassVar[MessageSpec] = SPECS['firmware']
-    id: int
-    version: int
+    __match_args__ = ('id', 'version')
 
+    if TYPE_CHECKING:
+        version: int
+    else:
+        version = field_getter(1, 'version')
+
+    def __new__(cls, id: int, version: int) -> Self:  # noqa: A002
+        return _new(cls, (id, version))
 
 MESSAGES: dict[str, type[Message]] = {
     'position_speed': PositionSpeed,

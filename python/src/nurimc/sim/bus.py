@@ -1,299 +1,41 @@
-"""The bus: controllers, hosts and the wire between them, on one clock."""
+"""`SimBus`: the bus (core.py) plus the ways a host reaches it: an in-process port, a
+pseudo-terminal, TCP, and monitor endpoints that hear both directions.
+
+The endpoint modules take a bus and import only core.py, so nothing here is circular.
+"""
 
 from __future__ import annotations
 
-import logging
-import os
-import threading
-import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING
-
-from ..protocol import BAUD_RATES, StreamParser, decode
-from .controller import EEPROM_TIME, Reply, SimController
-from .faults import FaultConfig, FaultInjector
-from .settings import Settings, check_product
-from .store import StateStore
-from .wire import Garbler, Transmission, byte_time, merge
-
-if TYPE_CHECKING:
-    from .port import SimSerial
-    from .pty_server import PtyEndpoint
-    from .tcp_server import TcpServer
-
-log = logging.getLogger("nurimc.sim")
-
-TICK = 0.02  # s between background physics updates (real clock only)
+from .core import BusCore, HostLink, describe
+from .port import SimSerial
+from .pty_server import PtyEndpoint, PtyServer
+from .tcp_server import TcpServer
 
 
-class HostLink:
-    """One host's end of the bus (an in-process port, a pseudo-terminal, a TCP client)."""
+class SimBus(BusCore):
+    """Simulated controllers on one RS485 bus, with endpoints for hosts (see BusCore)."""
 
-    def __init__(self, bus: SimBus, baud: int) -> None:
-        self.bus = bus
-        self.baud = baud
-        self.rx = bytearray()  # bytes that reached this host and were not read yet
-        self.closed = False
-        self._log_parser = StreamParser()
+    def open_serial(self, baudrate: int = 9600, timeout: float | None = 0.1, monitor: bool = False) -> SimSerial:
+        """An in-process, pyserial-compatible port on this bus (a monitor hears both directions)."""
+        return SimSerial.on_bus(self, baudrate=baudrate, timeout=timeout, monitor=monitor)
 
-    def write(self, data: bytes) -> None:
-        self.bus.host_write(self, data)
+    def serve_pty(self, link: str | None = None, monitor: bool = False) -> PtyEndpoint:
+        """Serve a pseudo-terminal (and a symlink to it); returns its path, with .stop().
+        A monitor pty hears every byte on the bus in both directions."""
+        return PtyServer(self, link, monitor=monitor).start()
 
-    def take(self, size: int | None = None) -> bytes:
-        """Up to `size` (all if None) received bytes, after delivering what is due."""
-        with self.bus.lock:
-            self.bus.pump()
-            n = len(self.rx) if size is None else min(size, len(self.rx))
-            out = bytes(self.rx[:n])
-            del self.rx[:n]
-            return out
+    def serve_monitor(self, link: str | None = None) -> PtyEndpoint:
+        """A pseudo-terminal that hears both directions, as a second adapter on the line would."""
+        return self.serve_pty(link, monitor=True)
 
-    def close(self) -> None:
-        with self.bus.lock:
-            self.closed = True
-            if self in self.bus.links:
-                self.bus.links.remove(self)
-
-
-class SimBus:
-    """Simulated controllers on one RS485 bus.
-
-    `clock` returns seconds (default time.monotonic); tests may pass a fake one and move
-    it themselves. With `wire_timing` every byte takes 10 bits / baud on the wire.
-    """
-
-    def __init__(
-        self,
-        wire_timing: bool = False,
-        faults: FaultConfig | None = None,
-        state_dir: str | os.PathLike[str] | None = None,
-        seed: int = 0,
-        clock: Callable[[], float] | None = None,
-        eeprom_time: float = EEPROM_TIME,
-    ) -> None:
-        self.wire_timing = wire_timing
-        self.fault_config = faults or FaultConfig()
-        self.faults = FaultInjector(self.fault_config, seed)
-        self.seed = seed
-        self.eeprom_time = eeprom_time
-        self._clock = clock or time.monotonic
-        self._real_clock = clock is None
-        self.lock = threading.RLock()
-        self.changed = threading.Condition(self.lock)
-        self.controllers: list[SimController] = []
-        self.links: list[HostLink] = []
-        self.airborne: list[Transmission] = []
-        self.collisions = 0
-        self._garbler = Garbler(seed + 0x6A5)
-        self._store = StateStore(state_dir) if state_dir is not None else None
-        self._host_free_at = 0.0
-        self._ticker: threading.Thread | None = None
-        self._closing = threading.Event()
-
-    # --- building ---------------------------------------------------------------------------
-    def now(self) -> float:
-        return self._clock()
-
-    def add_controller(self, id: int = 0, baud: int = 9600, product: str = "mc") -> SimController:  # noqa: A002
-        """Add a controller. With a state directory, a stored controller in this slot keeps its
-        stored settings (its ID and rate may have been changed over the wire)."""
-        if not isinstance(id, int) or not 0 <= id <= 0xFE:
-            raise ValueError(f"controller ID {id!r} is out of range; use 0..254")
-        if baud not in BAUD_RATES:
-            raise ValueError(
-                f"{baud} bps is not a rate these controllers support; use one of "
-                + ", ".join(str(r) for r in BAUD_RATES)
-            )
-        check_product(product)
-        with self.lock:
-            slot = len(self.controllers)
-            if slot >= 254:
-                raise ValueError("a bus holds at most 254 controllers")
-            record = self._store.slot(slot) if self._store is not None else None
-            if record is not None and record.get("product") == product and isinstance(record.get("settings"), dict):
-                settings = Settings.from_dict(record["settings"], product)
-            else:
-                settings = Settings.factory(product)
-                settings.id = id
-                settings.baud_index = BAUD_RATES.index(baud)
-            controller = SimController(
-                settings, product, slot, on_settings_changed=self._persist, eeprom_time=self.eeprom_time
-            )
-            controller.advance_to(self.now())
-            self.controllers.append(controller)
-            self._persist()
-            return controller
-
-    def _persist(self) -> None:
-        if self._store is not None:
-            self._store.save([{"product": c.product, "settings": c.settings.to_dict()} for c in self.controllers])
-
-    def controller(self, id: int) -> SimController:  # noqa: A002
-        """The first controller currently at `id` (KeyError if none)."""
-        for c in self.controllers:
-            if c.id == id:
-                return c
-        raise KeyError(f"no simulated controller has ID {id}")
-
-    # --- hosts ------------------------------------------------------------------------------
-    def open_link(self, baud: int) -> HostLink:
-        with self.lock:
-            link = HostLink(self, baud)
-            self.links.append(link)
-        self._start_ticker()
-        return link
-
-    def open_serial(self, baudrate: int = 9600, timeout: float | None = 0.1) -> SimSerial:
-        """An in-process, pyserial-compatible port on this bus."""
-        from .port import SimSerial
-
-        return SimSerial.on_bus(self, baudrate=baudrate, timeout=timeout)
-
-    def serve_pty(self, link: str | None = None) -> PtyEndpoint:
-        """Serve a pseudo-terminal (and a symlink to it); returns its path, with .stop()."""
-        from .pty_server import PtyServer
-
-        return PtyServer(self, link).start()
-
-    def serve_tcp(self, port: int = 0, host: str = "127.0.0.1", baud: int | None = None) -> TcpServer:
-        """Serve raw TCP (pyserial socket://); the host's rate is `baud` (default: the first controller's)."""
-        from .tcp_server import TcpServer
-
+    def serve_tcp(
+        self, port: int = 0, host: str = "127.0.0.1", baud: int | None = None, monitor: bool = False
+    ) -> TcpServer:
+        """Serve raw TCP (pyserial socket://); the host's rate is `baud` (default: the first controller's).
+        With `monitor`, every client hears both directions."""
         if baud is None:
             baud = self.controllers[0].baud if self.controllers else 9600
-        return TcpServer(self, host, port, baud).start()
-
-    # --- the wire ---------------------------------------------------------------------------
-    def host_write(self, link: HostLink, data: bytes) -> None:
-        """The host sends `data` at its link's rate; controllers hear it and may answer."""
-        if not data:
-            return
-        with self.lock:
-            now = self.now()
-            self.pump(now)
-            if self.fault_config.echo:
-                link.rx += data
-            arrival = now
-            if self.wire_timing:
-                start = max(now, self._host_free_at)
-                arrival = start + len(data) * byte_time(link.baud)
-                self._host_free_at = arrival
-            if log.isEnabledFor(logging.DEBUG):
-                for message in link._log_parser.feed(data):
-                    log.debug("host @%d -> %s", link.baud, message)
-            heard = self.faults.corrupt(bytes(data), noise=False)
-            for controller in self.controllers:
-                if controller.baud == link.baud:
-                    chunk = heard
-                else:
-                    chunk = self._garbler.garble(heard, link.baud, controller.baud)
-                for reply in controller.receive(chunk, arrival):
-                    self._send(reply)
-            self.changed.notify_all()
-
-    def _send(self, reply: Reply) -> None:
-        delay = self.faults.answer_delay()
-        if delay is None:
-            log.debug("id %d answer lost (miss fault)", reply.controller.id)
-            return
-        tx = Transmission(reply.start + delay, reply.baud, bytearray(reply.frame), [reply.controller.id])
-        if log.isEnabledFor(logging.DEBUG):
-            log.debug("id %d <- %s  [%s]", reply.controller.id, decode(reply.frame), reply.frame.hex(" "))
-        merged = True
-        while merged:
-            merged = False
-            for other in self.airborne:
-                if other.delivered == 0 and other.overlaps(tx):
-                    self.airborne.remove(other)
-                    tx = merge(other, tx)
-                    merged = True
-                    break
-        self.airborne.append(tx)
-        self.airborne.sort(key=lambda t: t.start)
-
-    def pump(self, now: float | None = None) -> None:
-        """Hand every byte that has arrived by `now` to the hosts."""
-        with self.lock:
-            if now is None:
-                now = self.now()
-            done = []
-            for tx in self.airborne:
-                if now < tx.start:
-                    break
-                if self.wire_timing:
-                    due = min(len(tx.data), int((now - tx.start) / tx.byte_time + 1e-9))
-                else:
-                    due = len(tx.data)
-                if due > tx.delivered:
-                    chunk = bytes(tx.data[tx.delivered : due])
-                    if tx.delivered == 0 and tx.collided:
-                        self.collisions += 1
-                        log.debug("collision: ids %s answered at once; the host reads %s", tx.sources, tx.data.hex(" "))
-                    tx.delivered = due
-                    for link in self.links:
-                        self._receive(link, chunk, tx.baud)
-                if tx.delivered == len(tx.data):
-                    done.append(tx)
-            for tx in done:
-                self.airborne.remove(tx)
-            if done:
-                self.changed.notify_all()
-
-    def _receive(self, link: HostLink, chunk: bytes, baud: int) -> None:
-        if link.baud != baud:
-            chunk = self._garbler.garble(chunk, baud, link.baud)
-        link.rx += self.faults.corrupt(chunk, noise=True)
-
-    def next_delivery(self) -> float | None:
-        """Bus time of the next byte due at the hosts, or None if nothing is on the way."""
-        with self.lock:
-            if not self.airborne:
-                return None
-            tx = self.airborne[0]
-            if self.wire_timing:
-                return tx.start + (tx.delivered + 1) * tx.byte_time
-            return tx.start
-
-    def wait_hint(self, cap: float = 0.05) -> float:
-        """Seconds a reader may sleep before something can be delivered (capped)."""
-        due = self.next_delivery()
-        wait = cap if due is None else max(0.0, min(cap, due - self.now()))
-        if not self._real_clock:
-            wait = min(wait, 0.001)  # a fake clock may jump at any moment
-        return wait
-
-    # --- physics in the background ------------------------------------------------------------
-    def advance(self, now: float | None = None) -> None:
-        """Step every controller's physics up to `now` (the bus time by default)."""
-        with self.lock:
-            now = self.now() if now is None else now
-            for c in self.controllers:
-                c.advance_to(now)
-            self.pump(now)
-
-    def _start_ticker(self) -> None:
-        if not self._real_clock or self._ticker is not None:
-            return
-        self._ticker = threading.Thread(target=self._tick, name="nurimc-sim-physics", daemon=True)
-        self._ticker.start()
-
-    def _tick(self) -> None:
-        while not self._closing.wait(TICK):
-            self.advance()
-
-    def close(self) -> None:
-        """Stop the background physics (servers are stopped with their own stop())."""
-        self._closing.set()
-        if self._ticker is not None and self._ticker is not threading.current_thread():
-            self._ticker.join(timeout=1)
-        with self.lock:
-            for link in list(self.links):
-                link.close()
-
-
-def describe(bus: SimBus) -> list[str]:
-    """One line per controller, for startup output."""
-    return [f"id {c.id} @ {c.baud} bps ({c.product})" for c in bus.controllers]
+        return TcpServer(self, host, port, baud, monitor=monitor).start()
 
 
 __all__ = ["HostLink", "SimBus", "describe"]

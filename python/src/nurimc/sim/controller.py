@@ -12,12 +12,12 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..protocol import BROADCAST_ID, PRODUCTS, Message, StreamParser
+from ..protocol import PRODUCTS, Answer, Message
 from ..protocol import messages as m
 from ..protocol.errors import EncodeError
 from ..protocol.message import check_value
 from . import servo as sv
-from .motor import ACCEL_PER_AMP
+from .motor import ACCEL_PER_AMP, COULOMB
 from .servo import Mode, Servo
 from .settings import Settings, check_product
 
@@ -43,6 +43,7 @@ SETTINGS_COMMANDS = (
     m.SetDirection,
     m.FactoryReset,
 )
+SPEED_COMMANDS = (m.PositionSpeed, m.AccelSpeed)
 
 
 @dataclass
@@ -71,17 +72,6 @@ def _magnitude_and_direction(value: float, scale: float, wrap: int | None) -> tu
     return (1 if value < 0 and units else 0), min(units, FIELD_MAX)
 
 
-def _fields_valid(message: Message) -> bool:
-    """A frame can carry values the document forbids (speed 0, baud index 18); a controller ignores it."""
-    spec = message.SPEC
-    try:
-        for f in spec.fields:
-            check_value(spec, f, getattr(message, f.name))
-    except EncodeError:
-        return False
-    return True
-
-
 class SimController:
     """A controller on the bus. `receive` takes the bytes it hears; `replies` are what it sends."""
 
@@ -92,14 +82,15 @@ class SimController:
         slot: int,
         on_settings_changed: Callable[[], None] | None = None,
         eeprom_time: float = EEPROM_TIME,
+        speed_zero: str = "ignore",
     ) -> None:
         self.product = check_product(product)
+        self.speed_zero = speed_zero
         self.settings = settings
         self.slot = slot
         self.eeprom_time = eeprom_time
         self.busy_until = -1.0
         self.servo = Servo()
-        self.parser = StreamParser()
         self.clock_origin: float | None = None  # bus time of servo time 0
         self._on_settings_changed = on_settings_changed
         self.frames_received = 0
@@ -130,7 +121,9 @@ class SimController:
         s, servo = self.settings, self.servo
         gear = s.ratio / 10
         servo.limits.max_speed = s.rated_speed * 6.0 / gear
+        # the motor's inertia and friction, seen through the gearbox (see motor.py)
         servo.limits.accel_per_amp = ACCEL_PER_AMP / gear
+        servo.limits.coulomb = COULOMB / gear
         servo.limits.quantum = 360.0 / self.counts_per_output_turn
         product_max = PRODUCTS[self.product].max_rated_current
         pg, sg = servo.position_gains, servo.speed_gains
@@ -140,7 +133,12 @@ class SimController:
             s.position_kd * sv.POSITION_KD,
         )
         pg.current_limit = min(s.position_rated_current, product_max) / 10
-        sg.kp, sg.ki, sg.kd = s.speed_kp * sv.SPEED_KP, s.speed_ki * sv.SPEED_KI, s.speed_kd * sv.SPEED_KD
+        # the speed loop acts on the motor's speed (gear x the output's): ratio-independent dynamics
+        sg.kp, sg.ki, sg.kd = (
+            s.speed_kp * sv.SPEED_KP * gear,
+            s.speed_ki * sv.SPEED_KI * gear,
+            s.speed_kd * sv.SPEED_KD * gear,
+        )
         sg.current_limit = min(s.speed_rated_current, product_max) / 10
         servo.static = False
 
@@ -166,28 +164,43 @@ class SimController:
         return min(round(abs(self.servo.motor.current) * 10), 254)
 
     # --- protocol ---------------------------------------------------------------------------
-    def receive(self, data: bytes, now: float) -> list[Reply]:
-        """Bytes heard at this controller's own rate (all arriving at bus time `now`)."""
-        replies: list[Reply] = []
-        for message in self.parser.feed(data):
-            if message.id != self.id and message.id != BROADCAST_ID:
-                continue
-            self.frames_received += 1
-            if not _fields_valid(message):
-                log.debug("id %d ignores %s: a field is outside the document's range", self.id, message)
-                continue
-            if now < self.busy_until:
-                self.frames_ignored_busy += 1
-                log.debug("id %d busy writing EEPROM, ignores %s", self.id, message)
-                continue
-            baud_before = self.baud
-            reply = self.handle(message, now)
-            if reply is not None:
-                replies.append(reply)
-            if self.baud != baud_before:
-                self.parser.clear()  # what follows arrives at the old rate: garbage to us now
-                break
-        return replies
+    def take(self, message: Message, now: float) -> Reply | None:
+        """A frame addressed to us (or broadcast), whole at bus time `now`: obey or answer it,
+        unless it cannot be taken (logged with the reason)."""
+        self.frames_received += 1
+        problem = self._out_of_range(message)
+        if problem is not None:
+            log.debug("id %d ignores %s: %s", self.id, message, problem)
+            return None
+        if now < self.busy_until:
+            self.frames_ignored_busy += 1
+            log.debug(
+                "id %d ignores %s: busy writing settings (EEPROM) for %.1f ms more",
+                self.id,
+                message,
+                (self.busy_until - now) * 1000,
+            )
+            return None
+        if isinstance(message, Answer):
+            log.debug("id %d ignores %s: an answer, which only controllers send", self.id, message)
+            return None
+        return self.handle(message, now)
+
+    def _out_of_range(self, message: Message) -> str | None:
+        """Why a field is outside the document's range (speed 0, baud index 18, Kp 0, ...), or None.
+        Speed 0 in a motion command is taken when the product's rule is "stop"."""
+        spec = message.SPEC
+        for f in spec.fields:
+            value = getattr(message, f.name)
+            if f.name == "speed" and value == 0 and isinstance(message, SPEED_COMMANDS):
+                if self.speed_zero == "stop":
+                    continue
+                return "speed 0 is outside the document's range 1-65533 (profile rule speed_zero=ignore)"
+            try:
+                check_value(spec, f, value)
+            except EncodeError as exc:
+                return f"{f.name} {value} is outside the document's range ({exc})"
+        return None
 
     def handle(self, message: Message, now: float) -> Reply | None:
         """Obey a command or answer a request addressed to us (or broadcast)."""
@@ -252,6 +265,9 @@ class SimController:
             servo.zero()
             return
         if self.settings.control:  # control off: motion commands are ignored until control on
+            return
+        if isinstance(msg, m.PositionSpeed) and msg.speed == 0:  # taken only under speed_zero=stop
+            servo.hold()  # stop: hold the place it has reached
             return
         if isinstance(msg, (m.PositionSpeed, m.AccelPosition)):
             amount = _signed(msg.direction, msg.position / 100)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase
 
-from .bus import HostLink, SimBus
+from .core import BusCore, HostLink
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer
@@ -21,15 +21,19 @@ class SimSerial(SerialBase):
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        self.bus: SimBus | None = None
+        self.bus: BusCore | None = None
         self.link: HostLink | None = None
         self._own_bus = False
+        self.monitor = False  # hear every host's bytes too (a second adapter on the line)
         super().__init__(*args, **kwargs)
 
     @classmethod
-    def on_bus(cls, bus: SimBus, baudrate: int = 9600, timeout: float | None = 0.1) -> SimSerial:
+    def on_bus(
+        cls, bus: BusCore, baudrate: int = 9600, timeout: float | None = 0.1, monitor: bool = False
+    ) -> SimSerial:
         port = cls(None, baudrate=baudrate, timeout=timeout)
         port.bus = bus
+        port.monitor = monitor
         port.port = "sim"
         port.open()
         return port
@@ -40,7 +44,7 @@ class SimSerial(SerialBase):
             raise serial.SerialException("port already open")
         if self.bus is None:
             raise serial.SerialException("SimSerial needs a bus: use SimBus.open_serial() or a sim:// URL")
-        self.link = self.bus.open_link(int(self.baudrate))
+        self.link = self.bus.open_link(int(self.baudrate), monitor=self.monitor)
         self.is_open = True
 
     def close(self) -> None:

@@ -14,7 +14,7 @@ import threading
 import tty
 from pathlib import Path
 
-from .bus import HostLink, SimBus
+from .core import BusCore, HostLink
 
 log = logging.getLogger("nurimc.sim")
 
@@ -50,7 +50,7 @@ class PtyEndpoint(str):
 
 
 class PtyServer:
-    def __init__(self, bus: SimBus, link_path: str | None = None) -> None:
+    def __init__(self, bus: BusCore, link_path: str | None = None, monitor: bool = False) -> None:
         self.bus = bus
         self.link_path = link_path
         self.master, self.slave = os.openpty()
@@ -62,7 +62,7 @@ class PtyServer:
         speed = getattr(termios, f"B{default_baud}", termios.B9600)
         attrs[4] = attrs[5] = speed
         termios.tcsetattr(self.slave, termios.TCSANOW, attrs)
-        self.host: HostLink = bus.open_link(host_baud(self.master, default_baud))
+        self.host: HostLink = bus.open_link(host_baud(self.master, default_baud), monitor=monitor)
         self._wake_r, self._wake_w = os.pipe()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="nurimc-sim-pty", daemon=True)

@@ -4,6 +4,10 @@ Position loop (gains of section 4) -> speed reference; speed loop (gains of sect
 current, clamped to the rated current -> motor. The u8 gains are scaled to physical gains
 (below) so that the product defaults give a brisk, well-damped response and changing a
 gain visibly changes the step response.
+
+A real controller closes its loops on the motor's encoder or hall sensors, before the
+gearbox; the controller applies the speed gains to the motor's speed (n times the output's
+speed at n:1), so the loops behave the same at every ratio (see SimController.apply_settings).
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
-from .motor import ACCEL_PER_AMP, MotorState, step_motor
+from .motor import ACCEL_PER_AMP, COULOMB, MotorState, step_motor
 
 DT = 0.001  # s, the fixed physics step
 
@@ -23,6 +27,10 @@ POSITION_KD = 0.002  # (deg/s) per deg/s
 SPEED_KP = 0.0003  # A per deg/s
 SPEED_KI = 0.003  # A per deg
 SPEED_KD = 0.000002  # A per deg/s^2
+
+# The share of the rated current the position loop plans to brake with (the rest rejects
+# disturbances and the speed loop's lag).
+BRAKING_SHARE = 0.6
 
 
 class Mode(Enum):
@@ -44,6 +52,7 @@ class Limits:
     max_speed: float  # deg/s at the output shaft
     accel_per_amp: float  # deg/s^2 per A at the output shaft
     quantum: float  # deg: one encoder / hall step at the output shaft
+    coulomb: float = COULOMB  # deg/s^2 of dry friction at the output shaft
 
 
 class Servo:
@@ -150,7 +159,7 @@ class Servo:
         m, lim = self.motor, self.limits
         self.time += DT
         if self.mode is Mode.OFF:
-            step_motor(m, 0.0, lim.accel_per_amp, DT)
+            step_motor(m, 0.0, lim.accel_per_amp, lim.coulomb, DT)
             self.static = m.speed == 0.0
             return
         if self.mode is Mode.POSITION:
@@ -161,8 +170,9 @@ class Servo:
             speed_ref = g.kp * error + g.ki * self._pos_integral + g.kd * (feedforward - m.speed)
             if abs(speed_ref) < lim.max_speed:
                 self._pos_integral += error * DT  # integrate only while not saturated
-            speed_ref = max(-lim.max_speed, min(lim.max_speed, speed_ref))
             limit = g.current_limit
+            cap = self._speed_cap(limit)
+            speed_ref = max(-cap, min(cap, speed_ref))
         else:
             speed_ref = self._speed_reference()
             error = 0.0
@@ -175,7 +185,7 @@ class Servo:
         if abs(current) < limit:
             self._speed_integral += speed_error * DT
         current = max(-limit, min(limit, current))
-        step_motor(m, current, lim.accel_per_amp, DT)
+        step_motor(m, current, lim.accel_per_amp, lim.coulomb, DT)
         self.static = (
             m.speed == 0.0
             and speed_ref == 0.0
@@ -184,6 +194,18 @@ class Servo:
             and self.ramp is None
             and (self.mode is Mode.SPEED or self.ref == self.target)
         )
+
+    def _speed_cap(self, current_limit: float) -> float:
+        """The fastest the position loop may ask for: the rated speed, a 01 move's speed, and a
+        speed the motor can still brake from before the target with part of its current (so a
+        current-limited motor, e.g. behind a large gearbox, arrives instead of overshooting)."""
+        lim = self.limits
+        cap = lim.max_speed
+        if self.profile is None and self.ref_speed > 0.0:
+            cap = min(cap, self.ref_speed)
+        braking = BRAKING_SHARE * current_limit * lim.accel_per_amp + lim.coulomb
+        distance = abs(self.target - self.motor.angle) + lim.quantum
+        return min(cap, math.sqrt(2.0 * braking * distance))
 
     def _position_reference(self) -> float:
         """Move the position reference one step; return its speed (the feedforward)."""

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from ..protocol import BAUD_RATES, DEVICE_DEFAULTS, PRODUCTS
 
 PRODUCT_NAMES = tuple(PRODUCTS)
+ADDRESS_FIELDS = frozenset({"id", "baud_index"})
 
 
 def check_product(product: str) -> str:
@@ -37,6 +39,17 @@ class Settings:
     speed_ki: int
     speed_kd: int
     speed_rated_current: int
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        object.__setattr__(self, name, value)
+        if name in ADDRESS_FIELDS:
+            hook = self.__dict__.get("address_hook")
+            if hook is not None:
+                hook()  # the bus re-indexes its controllers by rate and ID, however the change came
+
+    def on_address_change(self, hook: Callable[[], None]) -> None:
+        """Call `hook` whenever the ID or the rate changes (not a field: never stored)."""
+        object.__setattr__(self, "address_hook", hook)
 
     @classmethod
     def factory(cls, product: str) -> Settings:

@@ -12,15 +12,16 @@ import select
 import socket
 import threading
 
-from .bus import HostLink, SimBus
+from .core import BusCore, HostLink
 
 log = logging.getLogger("nurimc.sim")
 
 
 class TcpServer:
-    def __init__(self, bus: SimBus, host: str, port: int, baud: int) -> None:
+    def __init__(self, bus: BusCore, host: str, port: int, baud: int, monitor: bool = False) -> None:
         self.bus = bus
         self.baud = baud
+        self.monitor = monitor
         self.listener = socket.create_server((host, port))
         self.listener.setblocking(False)
         self.address: tuple[str, int] = self.listener.getsockname()[:2]
@@ -61,7 +62,7 @@ class TcpServer:
         sock.setblocking(True)
         sock.settimeout(1.0)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.clients[sock] = self.bus.open_link(self.baud)
+        self.clients[sock] = self.bus.open_link(self.baud, monitor=self.monitor)
         log.info("tcp client %s:%d connected", *peer[:2])
 
     def _read(self, sock: socket.socket) -> None:

@@ -1,4 +1,5 @@
-"""A transport over any pyserial port or URL: device paths, socket://, rfc2217://, loop://, sim://."""
+"""A transport over any pyserial-compatible port: device paths, socket://, rfc2217://, loop://,
+and the schemes of the backend table (sim://, plugins: see backends.py)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,9 @@ from typing import Any
 import serial
 
 from ..errors import PortError
+from .backends import find_backend, known_schemes, scheme_of
 from .latency import estimate_latency
+from .rs485 import RS485, RtsDirection, enable_rs485, rs485_options
 
 
 def _port_error(url: str, err: Exception) -> PortError:
@@ -38,9 +41,13 @@ class SerialTransport:
     """Transport over a pyserial port. Reads on file-descriptor ports use select() directly,
     so a per-read timeout costs no termios reconfiguration."""
 
-    def __init__(self, port: Any, url: str, latency: float | None = None) -> None:
+    def __init__(
+        self, port: Any, url: str, latency: float | None = None, direction: RtsDirection | None = None
+    ) -> None:
         self.port = port
         self.url = url
+        #: RTS toggled around each write (RS485 without kernel support), or None
+        self.direction = direction
         estimated, self.warning = estimate_latency(url)  # warning: e.g. a slow FTDI latency timer
         self.latency = estimated if latency is None else latency
         if self.warning:
@@ -64,7 +71,10 @@ class SerialTransport:
 
     def write(self, data: bytes) -> None:
         try:
-            self.port.write(data)
+            if self.direction is not None:
+                self.direction.write(self.port, data)
+            else:
+                self.port.write(data)
         except (serial.SerialException, OSError) as err:
             raise _port_error(self.url, err) from err
 
@@ -105,15 +115,33 @@ class SerialTransport:
         self.port.close()
 
 
-def open_transport(url: str, baudrate: int = 9600, latency: float | None = None) -> SerialTransport:
-    """Open a device path or any pyserial URL (sim:// needs nurimc.sim, imported here on demand)."""
-    if url.startswith("sim://"):
-        import nurimc.sim  # noqa: F401 - registers the sim:// URL handler
+def open_transport(
+    url: str, baudrate: int = 9600, latency: float | None = None, rs485: bool | str | RS485 | None = None
+) -> SerialTransport:
+    """Open a device path or port URL. rs485: RS485 direction control (see rs485.py), for
+    adapters that do not switch between sending and receiving themselves."""
+    direction_options = rs485_options(rs485)
+    scheme = scheme_of(url)
+    if direction_options is not None and scheme is not None:
+        raise PortError(f"{url}: RS485 direction control needs a serial device; a {scheme}:// port has no RTS line")
+    options: dict[str, Any] = {"baudrate": baudrate, "timeout": 0.1}
     try:
-        options: dict[str, Any] = {"baudrate": baudrate, "timeout": 0.1}
-        if "://" not in url:
-            options["exclusive"] = True  # two programs on one bus would garble each other
-        port = serial.serial_for_url(url, **options)
+        opener = find_backend(url)
+        if opener is not None:
+            port = opener(url, **options)
+        else:
+            if scheme is None:
+                options["exclusive"] = True  # two programs on one bus would garble each other
+            port = serial.serial_for_url(url, **options)
     except (serial.SerialException, OSError, ValueError) as err:
+        if "protocol" in str(err) and "not known" in str(err):
+            raise PortError(f"{url}: unknown port scheme {scheme}://; known: {', '.join(known_schemes())}") from err
         raise _port_error(url, err) from err
-    return SerialTransport(port, url, latency)
+    direction = None
+    if direction_options is not None:
+        try:
+            direction = enable_rs485(port, direction_options, url)
+        except PortError:
+            port.close()
+            raise
+    return SerialTransport(port, url, latency, direction)

@@ -33,7 +33,7 @@ export class DirectLink {
         try {
           const s = await this.motor(id).readState();
           const signed = s.direction === "cw" ? -s.position : s.position;
-          rows.push([id, (performance.now() - this.origin) / 1000, signed, s.speed, s.current]);
+          rows.push([id, (performance.now() - this.origin) / 1000, signed, s.speed, s.current, signed]);
         } catch (error) {
           this.emit("motor_error", { id, message: error.message });
         }

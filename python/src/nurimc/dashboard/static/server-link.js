@@ -1,25 +1,74 @@
-// The page's side of the websocket: requests with replies, and live events from the server.
+// The page's side of the websocket: requests with replies, live events, and reconnection.
+// Every request carries the emergency-stop generation the page has seen ("gen"), so the server
+// refuses anything the page sent before a stop it had not yet heard of.
+const BACKOFF_MS = [250, 500, 1000, 2000, 4000]; // then every 4 s
+
 export class ServerLink {
   constructor(url) {
     this.url = url;
     this.next = 1;
     this.pending = new Map();
     this.handlers = new Map();
+    this.connected = false;
+    this.generation = 0;
+    this.attempt = 0;
+    this.retryAt = null;
   }
 
-  connect() {
-    return new Promise((resolve, reject) => {
-      const ws = new WebSocket(this.url);
-      this.ws = ws;
-      ws.onopen = () => resolve(this);
-      ws.onerror = () => reject(new Error("cannot reach the console server (is `nurimc dashboard` running?)"));
-      ws.onclose = (event) => {
-        for (const { reject: fail } of this.pending.values()) fail(new Error("connection to the server closed"));
-        this.pending.clear();
-        this.emit("closed", { code: event.code, reason: event.reason });
-      };
-      ws.onmessage = (event) => this.receive(JSON.parse(event.data));
-    });
+  /** Connect, and keep reconnecting with backoff whenever the connection is lost. */
+  start() {
+    this.open();
+    return this;
+  }
+
+  open() {
+    let ws;
+    try {
+      ws = new WebSocket(this.url);
+    } catch {
+      this.scheduleRetry();
+      return;
+    }
+    this.ws = ws;
+    ws.onopen = () => {
+      this.connected = true;
+      this.attempt = 0;
+      this.retryAt = null;
+    };
+    ws.onclose = (event) => {
+      const was = this.connected;
+      this.connected = false;
+      for (const { reject } of this.pending.values()) reject(new Error("the connection to the server was lost; the command may not have run"));
+      this.pending.clear();
+      this.emit("closed", { code: event.code, reason: event.reason, was });
+      this.scheduleRetry();
+    };
+    ws.onerror = () => {}; // onclose follows and says it
+    ws.onmessage = (event) => {
+      let message;
+      try {
+        message = JSON.parse(event.data);
+      } catch {
+        return;
+      }
+      this.receive(message);
+    };
+  }
+
+  scheduleRetry() {
+    const delay = BACKOFF_MS[Math.min(this.attempt, BACKOFF_MS.length - 1)];
+    this.attempt += 1;
+    this.retryAt = Date.now() + delay;
+    this.emit("retrying", { delay, attempt: this.attempt });
+    clearTimeout(this.timer);
+    this.timer = setTimeout(() => this.open(), delay);
+  }
+
+  /** Try now instead of waiting for the backoff. */
+  retryNow() {
+    if (this.connected) return;
+    clearTimeout(this.timer);
+    this.open();
   }
 
   receive(message) {
@@ -31,14 +80,26 @@ export class ServerLink {
       else waiter.reject(new Error(message.error));
       return;
     }
+    if (message.type === "hello") {
+      this.generation = message.generation;
+      this.emit("open", message);
+    }
+    if (message.type === "estop" && message.generation > this.generation) this.generation = message.generation;
     this.emit(message.type, message);
   }
 
   request(op, args = {}) {
+    if (!this.connected || this.ws?.readyState !== WebSocket.OPEN) {
+      return Promise.reject(new Error("server unreachable: nothing was sent"));
+    }
     const req = this.next++;
+    const message = op === "estop" ? { op, req } : { op, req, gen: this.generation, ...args };
     return new Promise((resolve, reject) => {
       this.pending.set(req, { resolve, reject });
-      this.ws.send(JSON.stringify({ op, req, ...args }));
+      this.ws.send(JSON.stringify(message));
+    }).then((result) => {
+      if (op === "estop" && result.generation > this.generation) this.generation = result.generation;
+      return result;
     });
   }
 

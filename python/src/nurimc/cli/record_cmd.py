@@ -1,0 +1,89 @@
+"""`nurimc record --mcap FILE`: joint states and every frame on the bus, as a ROS 2 MCAP recording."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from pathlib import Path
+
+import typer
+
+from ..errors import NurimcError
+from .common import fail, options, out
+
+
+def record(
+    ctx: typer.Context,
+    mcap_path: Path = typer.Option(..., "--mcap", help="The MCAP file to write (ros2msg schemas, CDR)."),
+    ids: str = typer.Option(None, "--ids", help="Controller IDs to read: 1,2 (default: those found)."),
+    namespace: str = typer.Option("/", "--namespace", "-n", help="Namespace of the joint_states topic."),
+    joint_names: str = typer.Option(None, "--joint-names", help="One name per ID (default motor_<ID>)."),
+    rate: float = typer.Option(50.0, "--rate", help="Readings per second; 0 = as fast as the bus allows."),
+    seconds: float = typer.Option(None, "--seconds", help="Stop after this many seconds (default: until Ctrl-C)."),
+) -> None:
+    """Record joint_states (sensor_msgs/JointState) and every raw frame with its direction and time.
+
+    Example: nurimc --port /dev/ttyUSB0 --baud 115200 record --mcap run.mcap --ids 1,2 --seconds 10
+    """
+    o = options(ctx)
+    from .ros2_cmd import motor_ids, need_extra, open_traced_bus, wait_for_signal
+
+    need_extra()
+    from ..group import read_states
+    from ..recording.mcap_file import FRAMES_TOPIC, McapRecorder
+    from ..ros2.bridge import Bridge
+    from ..ros2.names import NameError_, topic
+    from ..ros2.names import joint_names as make_joint_names
+    from ..ros2.names import namespace as check_namespace
+
+    if rate < 0 or not math.isfinite(rate):
+        fail(f"--rate {rate}: give readings per second (0 = as fast as the bus allows)")
+    if seconds is not None and (seconds <= 0 or not math.isfinite(seconds)):
+        fail(f"--seconds {seconds}: give a duration > 0")
+    try:
+        state_topic = topic(check_namespace(namespace), "joint_states")
+    except NameError_ as error:
+        fail(str(error))
+    recorder = McapRecorder(mcap_path)
+    bus = open_traced_bus(o, recorder)
+    stop = threading.Event()
+    try:
+        motor_list = motor_ids(o, ids, bus)
+        try:
+            bridge = Bridge(motor_list, make_joint_names(joint_names, motor_list))
+        except ValueError as error:
+            fail(str(error))
+        procedures = [bus.motor(i, o.product).procedures for i in motor_list]
+        out.print(f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} (Ctrl-C ends)", soft_wrap=True)
+
+        def loop() -> None:
+            period = 1.0 / rate if rate else 0.0
+            next_read = time.monotonic()
+            while not stop.is_set():
+                try:
+                    bridge.readings(bus.run(read_states(procedures)))
+                except NurimcError as error:  # the port itself failed
+                    out.print(f"error: {error}")
+                    stop.set()
+                    return
+                message = bridge.joint_state(time.time_ns())
+                if message is not None:
+                    recorder.joint_state(state_topic, message)
+                next_read = max(next_read + period, time.monotonic())
+                stop.wait(next_read - time.monotonic())
+
+        worker = threading.Thread(target=loop, name="nurimc-record", daemon=True)
+        worker.start()
+        wait_for_signal(stop, seconds)
+        stop.set()
+        worker.join(timeout=5)
+    finally:
+        bus.close()
+        recorder.close()
+    counts = ", ".join(f"{n} on {t}" for t, n in sorted(recorder.counts.items()))
+    out.print(f"wrote {mcap_path}: {counts or 'no messages'}", soft_wrap=True)
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="record")(record)

@@ -1,0 +1,165 @@
+"""`nurimc ros2`: the bus as ROS 2 topics over DDS, without ROS 2 installed (see docs/ros2.md)."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import threading
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from ..client.sync import Bus
+from .common import EXIT_DEVICE, FramePrinter, Options, err, fail, options, out, parse_ids
+
+EXTRA_HINT = "this command needs the ros2 extra: pip install 'nurimc[ros2]' (cyclonedds, mcap)"
+
+
+def need_extra() -> None:
+    try:
+        import cyclonedds  # noqa: F401
+        import mcap  # noqa: F401
+    except ImportError:
+        fail(EXTRA_HINT)
+
+
+def open_traced_bus(o: Options, recorder: Any | None) -> Bus:
+    """Like common.open_bus, with an MCAP recorder (and -v's printer) seeing every byte."""
+    port = o.port or os.environ.get("NURIMC_PORT")
+    if not port:
+        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1) or set NURIMC_PORT")
+    tracers = [t for t in (recorder, FramePrinter() if o.verbose else None) if t is not None]
+    tracer = tracers[0] if len(tracers) == 1 else _Tee(tracers) if tracers else None
+    bus = Bus.open(port, baudrate=o.baud, tracer=tracer)
+    warning = getattr(bus.transport, "warning", None)
+    if warning:
+        err.print(f"[yellow]warning:[/] {warning}", soft_wrap=True)
+    return bus
+
+
+class _Tee:
+    def __init__(self, tracers: list[Any]) -> None:
+        self.tracers = tracers
+
+    def record(self, direction: str, data: bytes) -> None:
+        for tracer in self.tracers:
+            tracer.record(direction, data)
+
+    def close(self) -> None:
+        for tracer in self.tracers:
+            tracer.close()
+
+
+def motor_ids(o: Options, ids_text: str | None, bus: Bus) -> list[int]:
+    """--ids (or the global --id), else the controllers that answer at the bus's rate."""
+    ids = parse_ids(ids_text) if ids_text else o.ids
+    if ids:
+        if len(set(ids)) != len(ids):
+            fail(f"--ids {ids_text}: an ID is given twice")
+        if 255 in ids or min(ids) < 0:
+            fail("--ids: IDs are 0..254")
+        return ids
+    from ..discovery import discover
+
+    err.print(f"no --ids: looking for controllers at {bus.baudrate} bps...")
+    found = bus.run(discover(bus.core, [bus.baudrate]))
+    if not found:
+        fail(
+            f"no controller answers at {bus.baudrate} bps on {bus.transport.url}: check --baud "
+            "(`nurimc scan` searches every rate) or give --ids",
+            EXIT_DEVICE,
+        )
+    return sorted(f.id for f in found)
+
+
+def wait_for_signal(stop: threading.Event, seconds: float | None) -> None:
+    """Until SIGINT / SIGTERM (or `seconds`, if given)."""
+
+    def on_signal(signum: int, frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    stop.wait(seconds)
+
+
+def ros2(
+    ctx: typer.Context,
+    ids: str = typer.Option(None, "--ids", help="Controller IDs in joint order: 1,2 (default: those found)."),
+    namespace: str = typer.Option("/", "--namespace", "-n", help="ROS 2 namespace of the topics, e.g. /left_arm."),
+    joint_names: str = typer.Option(None, "--joint-names", help="One name per ID: shoulder,elbow (motor_<ID>)."),
+    rate: float = typer.Option(50.0, "--rate", help="joint_states per second; 0 = as fast as the bus allows."),
+    command_timeout: float = typer.Option(
+        0.5, "--command-timeout", help="Seconds without velocity_commands before a turning motor holds; 0 = off."
+    ),
+    move_velocity: float = typer.Option(
+        round(2 * math.pi, 4), "--move-velocity", help="Speed of moves to position_commands, rad/s (6.28 = 60 RPM)."
+    ),
+    ramp: float = typer.Option(0.1, "--ramp", help="Seconds to reach a commanded velocity."),
+    broadcast_read: bool = typer.Option(
+        False,
+        "--broadcast-read",
+        help="Read all motors with one broadcast request (writes staggered response times to the controllers).",
+    ),
+    mcap_path: Path = typer.Option(None, "--mcap", help="Also record joint states and every frame to this file."),
+    seconds: float = typer.Option(None, "--seconds", help="Stop after this many seconds (default: until Ctrl-C)."),
+) -> None:
+    """Publish joint_states and /diagnostics; obey position_commands, velocity_commands and estop (ROS 2 over DDS).
+
+    Example: nurimc --port /dev/ttyUSB0 --baud 115200 ros2 --ids 1,2 --namespace /arm
+    """
+    o = options(ctx)
+    need_extra()
+    from ..ros2.bridge import Bridge
+    from ..ros2.dds import Participant, domain_id
+    from ..ros2.names import NameError_
+    from ..ros2.names import joint_names as make_joint_names
+    from ..ros2.names import namespace as check_namespace
+    from ..ros2.node import BridgeNode
+
+    try:
+        ns = check_namespace(namespace)
+        domain = domain_id()
+    except (NameError_, ValueError) as error:
+        fail(str(error))
+    if rate < 0 or not math.isfinite(rate):
+        fail(f"--rate {rate}: give readings per second (0 = as fast as the bus allows)")
+    recorder = None
+    if mcap_path is not None:
+        from ..recording.mcap_file import McapRecorder
+
+        recorder = McapRecorder(mcap_path)
+    bus = open_traced_bus(o, recorder)
+    node = None
+    try:
+        motor_list = motor_ids(o, ids, bus)
+        try:
+            names = make_joint_names(joint_names, motor_list)
+            bridge = Bridge(motor_list, names, command_timeout, move_velocity, ramp)
+        except ValueError as error:
+            fail(str(error))
+        node = BridgeNode(bus, bridge, Participant(domain), ns, rate, o.product, broadcast_read, recorder)
+        node.prepare()
+        joints = ", ".join(f"{n}=ID {i}" for n, i in zip(names, motor_list, strict=True))
+        out.print(
+            f"ready: domain {domain}, {node.joint_states_topic} ({joints}); commands on "
+            f"{'' if ns == '/' else ns}/position_commands, velocity_commands, estop; /diagnostics",
+            soft_wrap=True,
+        )
+        node.start()
+        wait_for_signal(node.done, seconds)
+        node.stop()
+        if node.failure:
+            fail(node.failure, EXIT_DEVICE)
+    finally:
+        if node is not None:
+            node.close()
+        bus.close()
+        if recorder is not None:
+            recorder.close()
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="ros2")(ros2)

@@ -1,0 +1,279 @@
+"""The bridge on a bus and a DDS participant: one thread owns the bus, DDS callbacks only queue.
+
+DDS delivers commands on Cyclone's own threads; they are queued here and the bus thread
+carries them out between readings, so a command waits at most for the reading under way.
+An estop drops every command queued before it and goes first.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from ..client.sync import Bus
+from ..errors import NurimcError
+from ..group import read_states, read_states_broadcast, stagger
+from ..motor import Motor, MotorState
+from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
+from . import msgs
+from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
+from .dds import Participant
+from .names import topic
+
+DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
+ESTOP_VERIFY = 1.0  # s: how long to read back control off after an estop (EEPROM busy 50-300 ms)
+DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
+LOG_REPEAT = 2.0  # s between two reports of the same kind of trouble on stderr
+
+
+class NamespaceTaken(NurimcError):
+    """Another participant already publishes our joint_states: two bridges would collide."""
+
+
+class StateSink(Protocol):
+    """Also given each JointState published (e.g. an MCAP recorder)."""
+
+    def joint_state(self, topic: str, message: msgs.JointState) -> None: ...
+
+
+class BridgeNode:
+    def __init__(
+        self,
+        bus: Bus,
+        bridge: Bridge,
+        participant: Participant,
+        namespace: str = "/",
+        rate: float = 50.0,
+        product: str = "mc",
+        broadcast_read: bool = False,
+        sink: StateSink | None = None,
+        log: Callable[[str], None] | None = None,
+    ) -> None:
+        if rate < 0 or not math.isfinite(rate):
+            raise ValueError(f"--rate {rate}: give readings per second > 0 (0 = as fast as the bus allows)")
+        self.bus = bus
+        self.bridge = bridge
+        self.participant = participant
+        self.namespace = namespace
+        self.period = 1.0 / rate if rate else 0.0
+        self.motors = {i: Motor(bus, i, product) for i in bridge.ids}
+        self.broadcast_read = broadcast_read
+        self.slot: int | None = None
+        self.sink = sink
+        self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+        self._logged: dict[str, float] = {}
+        self.joint_states_topic = topic(namespace, "joint_states")
+        self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
+        self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
+        self.published = 0
+        self._events: deque[tuple[str, Any]] = deque()
+        self._wake = threading.Condition()
+        self._stopping = False
+        self._thread: threading.Thread | None = None
+        self.done = threading.Event()
+        self.failure: str | None = None
+        self._state_writer = participant.writer(self.joint_states_topic, msgs.JointState)
+        self._diagnostics_writer = participant.writer("/diagnostics", msgs.DiagnosticArray)
+        self._readers = [
+            participant.reader(topic(namespace, "position_commands"), msgs.Float64MultiArray, self._queue("position")),
+            participant.reader(topic(namespace, "velocity_commands"), msgs.Float64MultiArray, self._queue("velocity")),
+            participant.reader(topic(namespace, "estop"), msgs.Bool, self._queue("estop")),
+        ]
+
+    # -- DDS threads ------------------------------------------------------------------------
+    def _queue(self, kind: str) -> Callable[[Any], None]:
+        def on_data(reader: Any) -> None:
+            for sample in reader.take(N=64):
+                if isinstance(sample, msgs.Bool):
+                    self._push("estop", sample.data)
+                elif isinstance(sample, msgs.Float64MultiArray):
+                    self._push(kind, list(sample.data))
+
+        return on_data
+
+    def _push(self, kind: str, value: Any) -> None:
+        with self._wake:
+            if kind == "estop":
+                # A stop wins over everything queued before it; estops keep their order among themselves.
+                kept = [e for e in self._events if e[0] == "estop"]
+                self._events.clear()
+                self._events.extend(kept)
+            self._events.append((kind, value))
+            self._wake.notify()
+
+    # -- life --------------------------------------------------------------------------------
+    def prepare(self, discovery_wait: float = DISCOVERY_WAIT) -> dict[int, MotorState | Exception]:
+        """Refuse a namespace another bridge already serves; stagger for broadcast reads if asked; a first
+        reading (raises if no motor answers)."""
+        if discovery_wait and self.participant.other_writers(self.joint_states_topic, msgs.JointState, discovery_wait):
+            raise NamespaceTaken(
+                f"another program already publishes {self.joint_states_topic} on DDS domain "
+                f"{self.participant.domain}: give each bus its own --namespace"
+            )
+        procedures = [m.procedures for m in self.motors.values()]
+        if self.broadcast_read:
+            self.slot = self.bus.run(stagger(procedures, self.bus.baudrate))
+        results = self.bus.run(read_states(procedures))
+        if all(isinstance(r, Exception) for r in results.values()):
+            first = next(iter(results.values()))
+            raise first if isinstance(first, NurimcError) else NurimcError(str(first))
+        for device_id, result in results.items():
+            if isinstance(result, Exception):
+                self._log(f"warning: ID {device_id}: {result}")
+        self.bridge.readings(results)
+        return results
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self.run, name="nurimc-ros2-bridge", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        with self._wake:
+            self._stopping = True
+            self._wake.notify()
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+
+    def close(self) -> None:
+        self.stop()
+        self.participant.close()
+
+    # -- the bus thread ----------------------------------------------------------------------
+    def run(self) -> None:
+        """The bus loop, until stop(); `done` is set when it ends, `failure` says why if it broke."""
+        try:
+            self._loop()
+        except Exception as error:  # a bug must not leave motors turning unattended: stop what turns
+            self.failure = f"internal error in the bridge: {type(error).__name__}: {error}"
+            self._log(self.failure)
+            self._carry_out(self.bridge.shutdown())
+        finally:
+            self.done.set()
+
+    def _loop(self) -> None:
+        next_read = time.monotonic()
+        next_diagnostics = next_read
+        while True:
+            with self._wake:
+                if self._stopping:
+                    break
+                event = self._events.popleft() if self._events else None
+                if event is None:
+                    now = time.monotonic()
+                    wake_at = min(next_read, next_diagnostics, self.bridge.next_expiry() or math.inf)
+                    if wake_at > now:
+                        self._wake.wait(wake_at - now)
+                        continue
+            now = time.monotonic()
+            if event is not None:
+                self._handle(*event, now)
+                continue
+            self._carry_out(self.bridge.expire(now))
+            if now >= next_read:
+                self.read_and_publish()
+                next_read = max(next_read + self.period, time.monotonic()) if self.period else time.monotonic()
+            if now >= next_diagnostics:
+                self.publish_diagnostics()
+                next_diagnostics = now + DIAGNOSTICS_PERIOD
+        self._carry_out(self.bridge.shutdown())
+
+    def _handle(self, kind: str, value: Any, now: float) -> None:
+        try:
+            if kind == "estop":
+                actions = self.bridge.estop(bool(value), now)
+            elif kind == "position":
+                actions = self.bridge.position_command(value, now)
+            else:
+                actions = self.bridge.velocity_command(value, now)
+        except Refused as error:
+            self._report("refused", f"refused: {error}")
+            return
+        self._carry_out(actions)
+
+    def _carry_out(self, actions: list[Action]) -> None:
+        for action in actions:
+            try:
+                self._perform(action)
+            except (NurimcError, FieldRangeError, ValueError) as error:
+                self._report(f"action{getattr(action, 'id', '')}", f"error: {action}: {error}")
+
+    def _perform(self, action: Action) -> None:
+        if isinstance(action, MoveTo):
+            self.motors[action.id].move_to(action.degrees, rpm=action.rpm)
+        elif isinstance(action, Run):
+            self.motors[action.id].run(action.rpm, action.ramp)
+        elif isinstance(action, Hold):
+            self.motors[action.id].hold()
+        elif isinstance(action, ReleaseAll):
+            self.release_all(action.ids)
+
+    def release_all(self, ids: tuple[int, ...]) -> None:
+        """Control off by broadcast, then to each motor by ID, then read back until each says off."""
+        self.bus.send(SetControl(BROADCAST_ID, 1))
+        for device_id in ids:
+            self.motors[device_id].release()  # the handle remembers: the next motion turns control on first
+        deadline = time.monotonic() + ESTOP_VERIFY
+        pending = set(ids)
+        while pending:
+            for device_id in sorted(pending):
+                try:
+                    if self.motors[device_id].get("control") == "off":
+                        pending.discard(device_id)
+                    else:
+                        self.motors[device_id].release()
+                except NurimcError:
+                    pass  # busy writing EEPROM: ask again
+            if pending and time.monotonic() >= deadline:
+                ids_text = ", ".join(map(str, sorted(pending)))
+                self._log(f"estop: ID {ids_text} did not confirm control off within {ESTOP_VERIFY} s")
+                return
+            if pending:
+                time.sleep(0.05)
+        self._log(f"estop: control off confirmed on ID {', '.join(map(str, ids))}")
+
+    def read_states(self) -> dict[int, MotorState | Exception]:
+        procedures = [m.procedures for m in self.motors.values()]
+        if self.slot is not None:
+            try:
+                return dict(self.bus.run(read_states_broadcast(procedures, self.slot)))
+            except NurimcError as error:
+                return {m.id: error for m in procedures}
+        return self.bus.run(read_states(procedures))
+
+    def read_and_publish(self) -> msgs.JointState | None:
+        try:
+            results = self.read_states()
+        except NurimcError as error:  # the port itself (adapter unplugged...): every motor gets the error
+            results = {device_id: error for device_id in self.motors}
+        self.bridge.readings(results)
+        for joint in self.bridge.joints:
+            if joint.error:
+                self._report(f"read{joint.id}", f"ID {joint.id}: {joint.error}")
+        message = self.bridge.joint_state(time.time_ns())
+        if message is not None:
+            self._state_writer.write(message)
+            self.published += 1
+            if self.sink is not None:
+                self.sink.joint_state(self.joint_states_topic, message)
+        return message
+
+    def publish_diagnostics(self) -> None:
+        stats = self.bus.stats.as_dict()
+        stats |= {
+            "baudrate": self.bus.baudrate,
+            "port": self.bus.transport.url,
+            "joint_states_published": self.published,
+        }
+        self._diagnostics_writer.write(self.bridge.diagnostics(time.time_ns(), self.prefix, self.hardware, stats))
+
+    def _report(self, kind: str, text: str) -> None:
+        """stderr, but the same kind of trouble at most every LOG_REPEAT seconds."""
+        now = time.monotonic()
+        if now - self._logged.get(kind, -math.inf) >= LOG_REPEAT:
+            self._logged[kind] = now
+            self._log(text)

@@ -1,0 +1,356 @@
+"""The bus: controllers, hosts and the wire between them, on one clock.
+
+What the host sends is parsed once per rate that some controller listens at (garbled first
+for the other rates), and each frame goes to the controllers it addresses (all of that
+rate for a broadcast), found in an index by rate and ID: a request costs the same with 1
+controller or 254. Physics stays per controller (a standing controller costs nothing).
+
+The endpoints (in-process port, pseudo-terminal, TCP) take a bus and live in modules of
+their own; `SimBus` in bus.py adds the methods that make them.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from collections import defaultdict
+from collections.abc import Callable
+
+from ..protocol import BAUD_RATES, BROADCAST_ID, decode
+from ..protocol.host import PROFILES
+from ..sniff import ExplainingParser, Frame
+from .controller import EEPROM_TIME, Reply, SimController
+from .faults import FaultConfig, FaultInjector
+from .settings import Settings, check_product
+from .store import StateStore
+from .wire import Garbler, Transmission, byte_time, merge
+
+log = logging.getLogger("nurimc.sim")
+
+TICK = 0.02  # s between background physics updates (real clock only)
+
+
+class HostLink:
+    """One host's end of the bus (an in-process port, a pseudo-terminal, a TCP client).
+
+    A monitor link also hears what every other host sends, as a second adapter on the
+    line would; anything it sends itself goes on the bus like any host's bytes.
+    """
+
+    def __init__(self, bus: BusCore, baud: int, monitor: bool = False) -> None:
+        self.bus = bus
+        self.baud = baud
+        self.monitor = monitor
+        self.rx = bytearray()  # bytes that reached this host and were not read yet
+        self.closed = False
+
+    def write(self, data: bytes) -> None:
+        self.bus.host_write(self, data)
+
+    def take(self, size: int | None = None) -> bytes:
+        """Up to `size` (all if None) received bytes, after delivering what is due."""
+        with self.bus.lock:
+            self.bus.pump()
+            n = len(self.rx) if size is None else min(size, len(self.rx))
+            out = bytes(self.rx[:n])
+            del self.rx[:n]
+            return out
+
+    def close(self) -> None:
+        with self.bus.lock:
+            self.closed = True
+            if self in self.bus.links:
+                self.bus.links.remove(self)
+
+
+class BusCore:
+    """Simulated controllers on one RS485 bus.
+
+    `clock` returns seconds (default time.monotonic); tests may pass a fake one and move
+    it themselves. With `wire_timing` every byte takes 10 bits / baud on the wire.
+    `speed_zero` ("ignore" or "stop", default: each product's profile) says what a motion
+    frame with speed 0 does.
+    """
+
+    def __init__(
+        self,
+        wire_timing: bool = False,
+        faults: FaultConfig | None = None,
+        state_dir: str | os.PathLike[str] | None = None,
+        seed: int = 0,
+        clock: Callable[[], float] | None = None,
+        eeprom_time: float = EEPROM_TIME,
+        speed_zero: str | None = None,
+    ) -> None:
+        if speed_zero not in (None, "ignore", "stop"):
+            raise ValueError(f"speed_zero {speed_zero!r}: use 'ignore' or 'stop'")
+        self.wire_timing = wire_timing
+        self.fault_config = faults or FaultConfig()
+        self.faults = FaultInjector(self.fault_config, seed)
+        self.seed = seed
+        self.eeprom_time = eeprom_time
+        self.speed_zero = speed_zero
+        self._clock = clock or time.monotonic
+        self._real_clock = clock is None
+        self.lock = threading.RLock()
+        self.changed = threading.Condition(self.lock)
+        self.controllers: list[SimController] = []
+        self.links: list[HostLink] = []
+        self.airborne: list[Transmission] = []
+        self.collisions = 0
+        self.rejected: dict[int, int] = defaultdict(int)  # bytes per rate that were no frame
+        self._parsers: dict[int, ExplainingParser] = {}  # one per rate a controller listens at
+        self._index: dict[int, dict[int, list[SimController]]] | None = None  # rate -> ID -> controllers
+        self._garbler = Garbler(seed + 0x6A5)
+        self._store = StateStore(state_dir) if state_dir is not None else None
+        self._host_free_at = 0.0
+        self._ticker: threading.Thread | None = None
+        self._closing = threading.Event()
+
+    # --- building ---------------------------------------------------------------------------
+    def now(self) -> float:
+        return self._clock()
+
+    def add_controller(self, id: int = 0, baud: int = 9600, product: str = "mc") -> SimController:  # noqa: A002
+        """Add a controller. With a state directory, a stored controller in this slot keeps its
+        stored settings (its ID and rate may have been changed over the wire)."""
+        if not isinstance(id, int) or not 0 <= id <= 0xFE:
+            raise ValueError(f"controller ID {id!r} is out of range; use 0..254")
+        if baud not in BAUD_RATES:
+            raise ValueError(
+                f"{baud} bps is not a rate these controllers support; use one of "
+                + ", ".join(str(r) for r in BAUD_RATES)
+            )
+        check_product(product)
+        with self.lock:
+            slot = len(self.controllers)
+            if slot >= 254:
+                raise ValueError("a bus holds at most 254 controllers")
+            record = self._store.slot(slot) if self._store is not None else None
+            if record is not None and record.get("product") == product:
+                settings = Settings.from_dict(record["settings"], product)
+            else:
+                settings = Settings.factory(product)
+                settings.id = id
+                settings.baud_index = BAUD_RATES.index(baud)
+            controller = SimController(
+                settings,
+                product,
+                slot,
+                on_settings_changed=self._settings_changed,
+                eeprom_time=self.eeprom_time,
+                speed_zero=self.speed_zero or PROFILES[product].speed_zero,
+            )
+            controller.advance_to(self.now())
+            settings.on_address_change(self._forget_index)
+            self.controllers.append(controller)
+            self._forget_index()
+            self._settings_changed()
+            return controller
+
+    def _forget_index(self) -> None:
+        self._index = None
+
+    def _settings_changed(self) -> None:
+        if self._store is not None:
+            self._store.save([{"product": c.product, "settings": c.settings.to_dict()} for c in self.controllers])
+
+    def _listeners(self) -> dict[int, dict[int, list[SimController]]]:
+        if self._index is None:
+            index: dict[int, dict[int, list[SimController]]] = {}
+            for c in self.controllers:
+                index.setdefault(c.baud, {}).setdefault(c.id, []).append(c)
+            self._index = index
+        return self._index
+
+    def controller(self, id: int) -> SimController:  # noqa: A002
+        """The first controller currently at `id` (KeyError if none)."""
+        for c in self.controllers:
+            if c.id == id:
+                return c
+        raise KeyError(f"no simulated controller has ID {id}")
+
+    # --- hosts ------------------------------------------------------------------------------
+    def open_link(self, baud: int, monitor: bool = False) -> HostLink:
+        with self.lock:
+            link = HostLink(self, baud, monitor)
+            self.links.append(link)
+        self._start_ticker()
+        return link
+
+    # --- the wire ---------------------------------------------------------------------------
+    def host_write(self, link: HostLink, data: bytes) -> None:
+        """The host sends `data` at its link's rate; controllers hear it and may answer."""
+        if not data:
+            return
+        with self.lock:
+            now = self.now()
+            self.pump(now)
+            if self.fault_config.echo:
+                link.rx += data
+            arrival = now
+            if self.wire_timing:
+                start = max(now, self._host_free_at)
+                arrival = start + len(data) * byte_time(link.baud)
+                self._host_free_at = arrival
+            heard = self.faults.corrupt(bytes(data), noise=False)
+            for other in self.links:
+                if other.monitor and other is not link:
+                    self._receive(other, heard, link.baud)
+            explain = log.isEnabledFor(logging.DEBUG)
+            listeners = self._listeners()
+            if explain and link.baud not in listeners:
+                rates = ", ".join(str(r) for r in sorted(listeners)) or "none"
+                log.debug(
+                    "host sent %d byte(s) at %d bps; no controller listens at that rate (controllers at %s): %s",
+                    len(data),
+                    link.baud,
+                    rates,
+                    bytes(data).hex(" "),
+                )
+            for rate in list(listeners):
+                chunk = heard if rate == link.baud else self._garbler.garble(heard, link.baud, rate)
+                self._hear(rate, chunk, arrival, explain and rate == link.baud)
+            self.changed.notify_all()
+
+    def _hear(self, rate: int, chunk: bytes, arrival: float, explain: bool) -> None:
+        """The controllers at `rate` hear `chunk`: parsed once, each frame to whom it addresses."""
+        parser = self._parsers.get(rate)
+        if parser is None:
+            parser = self._parsers[rate] = ExplainingParser()
+        for event in parser.feed(chunk):
+            if not isinstance(event, Frame):
+                self.rejected[rate] += len(event.raw)
+                if explain:
+                    log.debug("@%d not taken: %s: %s", rate, event.reason, event.raw.hex(" "))
+                continue
+            message = event.message
+            if explain:
+                log.debug("host @%d -> %s  [%s]", rate, message, event.raw.hex(" "))
+            by_id = self._listeners().get(rate, {})
+            if message.id == BROADCAST_ID:
+                targets = [c for group in by_id.values() for c in group]
+            else:
+                targets = list(by_id.get(message.id, ()))
+                if not targets and explain:
+                    log.debug("@%d not taken: no controller has ID %d at this rate", rate, message.id)
+            for controller in targets:
+                if controller.baud != rate:
+                    continue  # it moved to another rate earlier in this frame's broadcast
+                reply = controller.take(message, arrival)
+                if reply is not None:
+                    self._send(reply)
+            if self._index is None and rate not in self._listeners():
+                parser.clear()  # nobody listens at this rate any more
+                return
+
+    def _send(self, reply: Reply) -> None:
+        delay = self.faults.answer_delay()
+        if delay is None:
+            log.debug("id %d answer lost (miss fault)", reply.controller.id)
+            return
+        tx = Transmission(reply.start + delay, reply.baud, bytearray(reply.frame), [reply.controller.id])
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("id %d <- %s  [%s]", reply.controller.id, decode(reply.frame), reply.frame.hex(" "))
+        merged = True
+        while merged:
+            merged = False
+            for other in self.airborne:
+                if other.delivered == 0 and other.overlaps(tx):
+                    self.airborne.remove(other)
+                    tx = merge(other, tx)
+                    merged = True
+                    break
+        self.airborne.append(tx)
+        self.airborne.sort(key=lambda t: t.start)
+
+    def pump(self, now: float | None = None) -> None:
+        """Hand every byte that has arrived by `now` to the hosts."""
+        with self.lock:
+            if not self.airborne:
+                return
+            if now is None:
+                now = self.now()
+            done = []
+            for tx in self.airborne:
+                if now < tx.start:
+                    break
+                if self.wire_timing:
+                    due = min(len(tx.data), int((now - tx.start) / tx.byte_time + 1e-9))
+                else:
+                    due = len(tx.data)
+                if due > tx.delivered:
+                    chunk = bytes(tx.data[tx.delivered : due])
+                    if tx.delivered == 0 and tx.collided:
+                        self.collisions += 1
+                        log.debug("collision: ids %s answered at once; the host reads %s", tx.sources, tx.data.hex(" "))
+                    tx.delivered = due
+                    for link in self.links:
+                        self._receive(link, chunk, tx.baud)
+                if tx.delivered == len(tx.data):
+                    done.append(tx)
+            for tx in done:
+                self.airborne.remove(tx)
+            if done:
+                self.changed.notify_all()
+
+    def _receive(self, link: HostLink, chunk: bytes, baud: int) -> None:
+        if link.baud != baud:
+            chunk = self._garbler.garble(chunk, baud, link.baud)
+        link.rx += self.faults.corrupt(chunk, noise=True)
+
+    def next_delivery(self) -> float | None:
+        """Bus time of the next byte due at the hosts, or None if nothing is on the way."""
+        with self.lock:
+            if not self.airborne:
+                return None
+            tx = self.airborne[0]
+            if self.wire_timing:
+                return tx.start + (tx.delivered + 1) * tx.byte_time
+            return tx.start
+
+    def wait_hint(self, cap: float = 0.05) -> float:
+        """Seconds a reader may sleep before something can be delivered (capped)."""
+        due = self.next_delivery()
+        wait = cap if due is None else max(0.0, min(cap, due - self.now()))
+        if not self._real_clock:
+            wait = min(wait, 0.001)  # a fake clock may jump at any moment
+        return wait
+
+    # --- physics in the background ------------------------------------------------------------
+    def advance(self, now: float | None = None) -> None:
+        """Step every controller's physics up to `now` (the bus time by default)."""
+        with self.lock:
+            now = self.now() if now is None else now
+            for c in self.controllers:
+                c.advance_to(now)
+            self.pump(now)
+
+    def _start_ticker(self) -> None:
+        if not self._real_clock or self._ticker is not None:
+            return
+        self._ticker = threading.Thread(target=self._tick, name="nurimc-sim-physics", daemon=True)
+        self._ticker.start()
+
+    def _tick(self) -> None:
+        while not self._closing.wait(TICK):
+            self.advance()
+
+    def close(self) -> None:
+        """Stop the background physics (servers are stopped with their own stop())."""
+        self._closing.set()
+        if self._ticker is not None and self._ticker is not threading.current_thread():
+            self._ticker.join(timeout=1)
+        with self.lock:
+            for link in list(self.links):
+                link.close()
+
+
+def describe(bus: BusCore) -> list[str]:
+    """One line per controller, for startup output."""
+    return [f"id {c.id} @ {c.baud} bps ({c.product})" for c in bus.controllers]
+
+
+__all__ = ["BusCore", "HostLink", "describe"]

@@ -1,0 +1,225 @@
+"""`nurimc ros2` against the simulator, seen by an independent DDS participant (peer.py), loopback only.
+
+The bridge runs as its own process on a `sim://` bus (the simulator inside that process); the
+test sees the simulated motor only through joint_states, as a ROS 2 node would. Targets lie on
+the simulated encoder's 22.5 degree grid (resolution 4 at 1:1), where its position settles exactly.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import queue
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from nurimc.ros2.msgs import Frame
+
+from .peer import Bool, DiagnosticArray, JointState, Peer, command
+
+NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"
+BAUD = 115200
+
+
+class BridgeProcess:
+    """`nurimc ros2` on its own simulated bus; stopped with SIGINT (as Ctrl-C)."""
+
+    def __init__(self, namespace: str, ids: str, *options: str) -> None:
+        url = f"sim://?ids={ids},&baud={BAUD}"
+        argv = [NURIMC, "--port", url, "--baud", str(BAUD), "ros2", "--ids", ids, "--namespace", namespace, *options]
+        self.process = subprocess.Popen(
+            argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "NO_COLOR": "1"}
+        )
+        self.lines: queue.Queue[str] = queue.Queue()
+        self.stderr: list[str] = []
+        assert self.process.stdout is not None and self.process.stderr is not None
+        threading.Thread(target=self._pump, args=(self.process.stdout, self.lines.put), daemon=True).start()
+        threading.Thread(target=self._pump, args=(self.process.stderr, self.stderr.append), daemon=True).start()
+        try:
+            line = self.lines.get(timeout=20)
+        except queue.Empty:
+            line = ""
+        if not line.startswith("ready:"):
+            self.stop()
+            raise AssertionError(f"the bridge did not start: {line!r} {''.join(self.stderr)}")
+
+    @staticmethod
+    def _pump(stream: object, put: object) -> None:
+        for line in stream:  # type: ignore[attr-defined]
+            put(line)  # type: ignore[operator]
+
+    def stop(self) -> int:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+        try:
+            return self.process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            raise
+
+
+@pytest.fixture
+def peer() -> Iterator[Peer]:
+    p = Peer()
+    yield p
+    p.close()
+
+
+def unique(name: str) -> str:
+    return f"/{name}_{os.getpid()}_{time.monotonic_ns() % 10**6}"
+
+
+def near(value: float, target: float, tolerance: float) -> bool:
+    return abs(value - target) <= tolerance
+
+
+def test_joint_states_position_velocity_and_estop(peer: Peer) -> None:
+    """The issue's "done when": π/2 rad by position_commands, 2 rad/s by velocity_commands, stopped by estop."""
+    ns = unique("arm")
+    states = peer.subscribe(f"{ns}/joint_states", JointState)
+    diagnostics = peer.subscribe("/diagnostics", DiagnosticArray)
+    positions = peer.publisher(f"{ns}/position_commands", command([]).__class__)
+    velocities = peer.publisher(f"{ns}/velocity_commands", command([]).__class__)
+    estop = peer.publisher(f"{ns}/estop", Bool)
+    bridge = BridgeProcess(ns, "1")
+    try:
+        first = states.wait_for(lambda s: True, 10, "joint_states")
+        assert first.name == ["motor_1"]
+        assert len(first.position) == len(first.velocity) == len(first.effort) == 1
+
+        positions.write(command([math.pi / 2]))
+        at = states.wait_for(lambda s: near(s.position[0], math.pi / 2, 0.002), 5, "the joint at π/2 rad")
+        assert at.header.stamp.sec > 1_600_000_000  # wall-clock time, as ROS stamps
+
+        turning = None
+        for _ in range(40):  # a controller publishing at 20 Hz
+            velocities.write(command([2.0]))
+            time.sleep(0.05)
+            turning = next((s for s in reversed(states.poll()) if near(s.velocity[0], 2.0, 0.05)), None)
+            if turning is not None:
+                break
+        assert turning is not None, f"never turning at 2 rad/s: {states.samples[-1]}"
+        later = states.wait_for(lambda s: s.position[0] > turning.position[0] + 0.2, 2, "the joint advancing")
+        assert near(later.velocity[0], 2.0, 0.05)
+
+        estop.write(Bool(True))
+        stopped = states.wait_for(lambda s: s.velocity[0] == 0.0, 3, "the joint stopped by estop")
+        time.sleep(0.3)
+        assert states.poll()[-1].position[0] == pytest.approx(stopped.position[0], abs=0.01)  # and it stays
+
+        velocities.write(command([2.0]))  # refused while the estop is latched
+        time.sleep(0.3)
+        assert all(s.velocity[0] == 0.0 for s in states.poll()[-5:])
+
+        report = diagnostics.wait_for(lambda d: any(ns[1:] in s.name for s in d.status), 3, "our diagnostics")
+        by_name = {s.name.split(": ")[-1]: s for s in report.status if ns[1:] in s.name}
+        assert set(by_name) == {"motor_1", "bus"}
+        values = {kv.key: kv.value for kv in by_name["bus"].values}
+        assert int(values["requests"]) > 0 and values["baudrate"] == str(BAUD)
+    finally:
+        assert bridge.stop() == 0, "".join(bridge.stderr)
+
+
+def test_command_timeout_stops_a_motor_whose_commands_stop(peer: Peer, tmp_path: Path) -> None:
+    ns = unique("timeout")
+    states = peer.subscribe(f"{ns}/joint_states", JointState)
+    velocities = peer.publisher(f"{ns}/velocity_commands", command([]).__class__)
+    recording = tmp_path / "bridge.mcap"
+    bridge = BridgeProcess(ns, "3", "--command-timeout", "0.3", "--mcap", str(recording))
+    try:
+        states.wait_for(lambda s: True, 10, "joint_states")
+        time.sleep(0.2)  # let discovery match our writer
+        velocities.write(command([-3.0]))  # once, then silence
+        states.wait_for(lambda s: near(s.velocity[0], -3.0, 0.05), 2, "turning at -3 rad/s")
+        sent = time.monotonic()
+        states.wait_for(lambda s: s.velocity[0] == 0.0, 3, "the motor held after the timeout")
+        assert time.monotonic() - sent >= 0.25
+    finally:
+        assert bridge.stop() == 0, "".join(bridge.stderr)
+    # --mcap recorded what the bridge did: the run command went out, then the hold's control-on and move
+    with recording.open("rb") as stream:
+        sent_frames = [
+            Frame.deserialize(m.data).name
+            for _, channel, m in make_reader(stream).iter_messages()
+            if channel.topic == "/nurimc/frames" and Frame.deserialize(m.data).direction == "tx"
+        ]
+    assert "accel_speed" in sent_frames
+    after_run = sent_frames[sent_frames.index("accel_speed") :]
+    assert "set_control" in after_run and "position_speed" in after_run
+
+
+def test_motion_after_estop_is_released(peer: Peer) -> None:
+    """estop false unlatches; the next command turns control on again and the motor moves."""
+    ns = unique("resume")
+    states = peer.subscribe(f"{ns}/joint_states", JointState)
+    positions = peer.publisher(f"{ns}/position_commands", command([]).__class__)
+    estop = peer.publisher(f"{ns}/estop", Bool)
+    bridge = BridgeProcess(ns, "2")
+    try:
+        states.wait_for(lambda s: True, 10, "joint_states")
+        time.sleep(0.2)
+        estop.write(Bool(True))
+        time.sleep(0.5)
+        estop.write(Bool(False))
+        time.sleep(0.2)
+        positions.write(command([-math.pi / 2]))
+        states.wait_for(lambda s: near(s.position[0], -math.pi / 2, 0.002), 5, "the joint at -π/2 rad after the estop")
+    finally:
+        assert bridge.stop() == 0, "".join(bridge.stderr)
+
+
+def test_two_bridges_in_two_processes_one_subscriber(peer: Peer) -> None:
+    left, right = unique("left"), unique("right")
+    left_states = peer.subscribe(f"{left}/joint_states", JointState)
+    right_states = peer.subscribe(f"{right}/joint_states", JointState)
+    left_positions = peer.publisher(f"{left}/position_commands", command([]).__class__)
+    bridges = [BridgeProcess(left, "1", "--joint-names", "shoulder"), BridgeProcess(right, "1", "--joint-names", "hip")]
+    try:
+        assert left_states.wait_for(lambda s: True, 10, "left joint_states").name == ["shoulder"]
+        assert right_states.wait_for(lambda s: True, 10, "right joint_states").name == ["hip"]
+        time.sleep(0.2)
+        left_positions.write(command([math.pi / 4]))
+        left_states.wait_for(lambda s: near(s.position[0], math.pi / 4, 0.002), 5, "the left joint at π/4 rad")
+        assert all(s.position[0] == 0.0 for s in right_states.poll()[-10:])  # the other bus did not move
+        same = subprocess.run(
+            [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "-n", left],
+            capture_output=True,
+            text=True,
+            timeout=30,
+            env={**os.environ, "NO_COLOR": "1", "COLUMNS": "300"},
+        )
+        assert same.returncode == 1
+        assert f"another program already publishes {left}/joint_states" in same.stderr
+    finally:
+        codes = [b.stop() for b in bridges]
+        assert codes == [0, 0], [("".join(b.stderr)) for b in bridges]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["ros2", "--ids", "1", "--namespace", "/2arm"], "namespace '/2arm'"),
+        (["ros2", "--ids", "1", "--joint-names", "a,b"], "--joint-names gives 2 names for 1 motors"),
+        (["ros2", "--ids", "1", "--rate", "-1"], "--rate -1.0"),
+        (["ros2", "--ids", "9"], "no answer from ID 9"),
+    ],
+)
+def test_bad_input_is_one_line(args: list[str], message: str) -> None:
+    proc = subprocess.run(
+        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), *args],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        env={**os.environ, "NO_COLOR": "1", "COLUMNS": "200"},
+    )
+    assert proc.returncode in (1, 2)
+    assert message in proc.stderr and "Traceback" not in proc.stderr
