@@ -52,8 +52,12 @@ def latency(rounds: int) -> dict[str, float]:
     endpoint.stop()
     sim.close()
     b, lib = statistics.median(bare), statistics.median(library)
-    return {"bare_pyserial_median_us": round(b * 1e6, 1), "library_median_us": round(lib * 1e6, 1),
-            "ratio": round(lib / b, 3), "rounds": rounds}
+    return {
+        "bare_pyserial_median_us": round(b * 1e6, 1),
+        "library_median_us": round(lib * 1e6, 1),
+        "ratio": round(lib / b, 3),
+        "rounds": rounds,
+    }
 
 
 def discovery() -> dict[str, float]:
@@ -138,8 +142,13 @@ def main() -> None:
     }
     print(json.dumps(results, indent=2))
     if not quick:
-        record = {"results": results, "python": platform.python_version(), "machine": platform.machine(),
-                  "date": time.strftime("%Y-%m-%d"), "transport": "pseudo-terminal to the simulator"}
+        record = {
+            "results": results,
+            "python": platform.python_version(),
+            "machine": platform.machine(),
+            "date": time.strftime("%Y-%m-%d"),
+            "transport": "pseudo-terminal to the simulator",
+        }
         RESULTS.write_text(json.dumps(record, indent=2) + "\n")
         print(f"written: {RESULTS}")
 

@@ -41,11 +41,11 @@ os.environ["CYCLONEDDS_URI"] = (  # loopback only, as the tests
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randrange(100, 200)))
 
 from mcap.reader import make_reader  # noqa: E402
-from ros2.peer import JointState, Peer, command  # noqa: E402 - the tests' independent participant
 
 from nurimc.group import stagger_slot  # noqa: E402
 from nurimc.protocol import StreamParser  # noqa: E402
 from nurimc.ros2.msgs import Frame  # noqa: E402
+from ros2.peer import JointState, Peer, command  # noqa: E402 - the tests' independent participant
 
 NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"
 BITS = 10  # per byte on the wire: start, 8 data, stop
@@ -155,7 +155,7 @@ def command_latency(commands: int) -> dict[str, float]:
             time.sleep(0.5)
         latencies = []
         with recording.open("rb") as stream:
-            for _, channel, message in make_reader(stream).iter_messages(topics=["/nurimc/frames"]):
+            for _, _channel, message in make_reader(stream).iter_messages(topics=["/nurimc/frames"]):
                 frame = Frame.deserialize(message.data)
                 if frame.direction == "tx" and frame.name == "accel_speed":
                     speed = StreamParser().feed(bytes(frame.data))[0].fields()["speed"]
@@ -192,7 +192,8 @@ def main() -> None:
             "machine": platform.machine(),
             "cores": os.cpu_count(),
             "date": time.strftime("%Y-%m-%d"),
-            "setup": "nurimc sim --wire-timing (pseudo-terminal), nurimc ros2, subscriber: 3 processes, DDS on loopback",
+            "setup": "nurimc sim --wire-timing (pseudo-terminal), nurimc ros2, subscriber: "
+            "3 processes, DDS on loopback",
         }
         RESULTS.write_text(json.dumps(record, indent=2) + "\n")
         print(f"written: {RESULTS}")

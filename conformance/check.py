@@ -49,52 +49,35 @@ def expand(value: Any) -> Any:
 
 def comparable(answer: Any) -> Any:
     """`detail` of a bad_request answer is free text: it must be a string, its words do not count."""
-    if (
-        isinstance(answer, dict)
-        and answer.get("error") == "bad_request"
-        and isinstance(answer.get("detail"), str)
-    ):
+    if isinstance(answer, dict) and answer.get("error") == "bad_request" and isinstance(answer.get("detail"), str):
         return {"error": "bad_request"}
     return answer
 
 
 def describe(raw: bytes) -> str:
-    shown = (
-        raw
-        if len(raw) <= 200
-        else raw[:120] + b"...(%d bytes)..." % len(raw) + raw[-40:]
-    )
+    shown = raw if len(raw) <= 200 else raw[:120] + b"...(%d bytes)..." % len(raw) + raw[-40:]
     return shown.decode("utf-8", "backslashreplace")
 
 
 def load(files: list[Path] | None = None) -> list[dict[str, Any]]:
     files = files or sorted((ROOT / "spec" / "vectors").glob("*.jsonl"))
-    return [
-        json.loads(line)
-        for path in files
-        for line in path.read_text().splitlines()
-        if line.strip()
-    ]
+    return [json.loads(line) for path in files for line in path.read_text().splitlines() if line.strip()]
 
 
 def check(command: list[str], label: str, files: list[Path] | None = None) -> int:
     """Run every vector through `command` in one process; print failures; 0 if all pass."""
     vectors = load(files)
     lines = [line_of(v) for v in vectors]
-    proc = subprocess.run(
-        command, input=b"\n".join(lines), capture_output=True, timeout=600, check=False
-    )
+    proc = subprocess.run(command, input=b"\n".join(lines), capture_output=True, timeout=600, check=False)
     answers = proc.stdout.split(b"\n")
     if answers and answers[-1] == b"":
         answers.pop()
     if proc.returncode != 0 or len(answers) != len(vectors):
-        print(
-            f"{label} exited {proc.returncode} after {len(answers)} of {len(vectors)} answers"
-        )
+        print(f"{label} exited {proc.returncode} after {len(answers)} of {len(vectors)} answers")
         print(proc.stderr.decode("utf-8", "replace")[-2000:])
         return 1
     failed = 0
-    for vector, raw, line in zip(vectors, lines, answers):
+    for vector, raw, line in zip(vectors, lines, answers, strict=True):
         try:
             got = json.loads(line)
         except (json.JSONDecodeError, UnicodeDecodeError):
@@ -116,9 +99,7 @@ def main(argv: list[str]) -> int:
         print(__doc__, file=sys.stderr)
         return 2
     lang, files = argv[0], [Path(p) for p in argv[1:]] or None
-    return check(
-        [str(ROOT / "conformance" / "run"), lang], f"conformance {lang}", files
-    )
+    return check([str(ROOT / "conformance" / "run"), lang], f"conformance {lang}", files)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 // Records benchmarks/results/dashboard-rate.json. Run: make -f e2e/Makefile.inc e2e-rate
 import { writeFileSync } from "node:fs";
 import { join } from "node:path";
-import { ROOT, startDashboard, launchBrowser, discover } from "./lib.mjs";
+import { discover, launchBrowser, ROOT, startDashboard } from "./lib.mjs";
 
 const SECONDS = 5;
 const [dashboard, browser] = await Promise.all([startDashboard(), launchBrowser()]);

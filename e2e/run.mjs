@@ -1,15 +1,18 @@
 // End-to-end tests of the console in headless Chromium against `nurimc dashboard --sim`.
-import { test, before, after } from "node:test";
+
 import assert from "node:assert/strict";
-import { request as httpRequest } from "node:http";
 import { existsSync, mkdirSync, mkdtempSync, readFileSync } from "node:fs";
+import { request as httpRequest } from "node:http";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
-import { ROOT, STATIC, startDashboard, launchBrowser, startStaticSite, discover } from "./lib.mjs";
+import { after, before, test } from "node:test";
+import { discover, launchBrowser, ROOT, STATIC, startDashboard, startStaticSite } from "./lib.mjs";
 
 // Screenshots go to docs/screenshots only when asked (make -f e2e/Makefile.inc screenshots),
 // so an ordinary test run leaves the work tree clean.
-const SHOTS = process.env.NURIMC_SCREENSHOTS ? join(ROOT, "docs/screenshots") : mkdtempSync(join(tmpdir(), "nurimc-shots-"));
+const SHOTS = process.env.NURIMC_SCREENSHOTS
+  ? join(ROOT, "docs/screenshots")
+  : mkdtempSync(join(tmpdir(), "nurimc-shots-"));
 let dashboard, browser, page;
 const problems = []; // console errors, page errors and failed loads of the main page
 
@@ -19,7 +22,11 @@ const SPY = () => {
   window.sentOps = [];
   const send = WebSocket.prototype.send;
   WebSocket.prototype.send = function (data) {
-    try { window.sentOps.push(JSON.parse(data).op); } catch { /* not ours */ }
+    try {
+      window.sentOps.push(JSON.parse(data).op);
+    } catch {
+      /* not ours */
+    }
     return send.call(this, data);
   };
   new MutationObserver(() => {
@@ -29,9 +36,13 @@ const SPY = () => {
 };
 
 function watch(p, sink) {
-  p.on("console", (m) => { if (m.type() === "error") sink.push(`console: ${m.text()}`); });
+  p.on("console", (m) => {
+    if (m.type() === "error") sink.push(`console: ${m.text()}`);
+  });
   p.on("pageerror", (error) => sink.push(`page error: ${error.message}`));
-  p.on("response", (r) => { if (r.status() >= 400) sink.push(`HTTP ${r.status()} ${r.url()}`); });
+  p.on("response", (r) => {
+    if (r.status() >= 400) sink.push(`HTTP ${r.status()} ${r.url()}`);
+  });
 }
 
 before(async () => {
@@ -51,12 +62,15 @@ after(async () => {
 });
 
 const motorPosition = (id) => page.evaluate((id) => window.dashboard.motors.get(id)?.series.position.at(-1), id);
-const controls = (p = page) => p.evaluate(async () => {
-  const out = {};
-  for (const id of [...window.dashboard.motors.keys()]) out[id] = (await window.dashboard.link.request("read_settings", { id })).settings.control;
-  return out;
-});
-const lastToast = () => page.evaluate(() => document.querySelector("#messages .message:last-child .text")?.textContent ?? "");
+const controls = (p = page) =>
+  p.evaluate(async () => {
+    const out = {};
+    for (const id of [...window.dashboard.motors.keys()])
+      out[id] = (await window.dashboard.link.request("read_settings", { id })).settings.control;
+    return out;
+  });
+const lastToast = () =>
+  page.evaluate(() => document.querySelector("#messages .message:last-child .text")?.textContent ?? "");
 
 test("the first load discovers the motors by itself, cards appearing as they are found", async () => {
   assert.match(await page.textContent("#mode"), /server/);
@@ -71,17 +85,32 @@ test("a move shows in the live plot, with its target, on a time axis relative to
   await page.waitForFunction(() => window.dashboard.motors.get(1)?.series.t.length > 5);
   const before = await motorPosition(1);
   const card = page.locator("#motor-1");
-  await card.locator(".controls").first().locator("input[type=number]").nth(0).fill(String(Math.round(before + 120)));
+  await card
+    .locator(".controls")
+    .first()
+    .locator("input[type=number]")
+    .nth(0)
+    .fill(String(Math.round(before + 120)));
   await card.locator(".controls").first().locator("input[type=number]").nth(1).fill("240");
   await card.getByRole("button", { name: "Move" }).click();
-  await page.waitForFunction((target) => Math.abs(window.dashboard.motors.get(1).series.position.at(-1) - target) < 2, before + 120, { timeout: 20000 });
+  await page.waitForFunction(
+    (target) => Math.abs(window.dashboard.motors.get(1).series.position.at(-1) - target) < 2,
+    before + 120,
+    { timeout: 20000 },
+  );
   await page.waitForTimeout(100);
   const plotted = await page.evaluate(() => window.dashboard.motors.get(1).plot.data);
   assert.ok(Math.max(...plotted[1]) - Math.min(...plotted[1]) > 100, "the plotted positions span the move");
-  assert.ok(plotted[2].some((v) => v != null && Math.abs(v - (before + 120)) < 0.5), "the target is drawn");
+  assert.ok(
+    plotted[2].some((v) => v != null && Math.abs(v - (before + 120)) < 0.5),
+    "the target is drawn",
+  );
   assert.ok(plotted[0].at(-1) === 0 && plotted[0][0] < 0, "time runs up to 0 = now");
   assert.ok(Math.abs(Number(await card.getAttribute("data-last-position")) - (before + 120)) < 2);
-  assert.ok(Math.abs(Number(await card.getAttribute("data-device-position"))) <= 655.35, "the device's own position is shown");
+  assert.ok(
+    Math.abs(Number(await card.getAttribute("data-device-position"))) <= 655.35,
+    "the device's own position is shown",
+  );
   await page.screenshot({ path: join(SHOTS, "motors.png") });
 });
 
@@ -90,7 +119,11 @@ test("a live plot pauses, holds a zoom, shows values on hover and exports CSV", 
   await card.getByRole("button", { name: "Pause" }).click();
   const frozen = await page.evaluate(() => window.dashboard.motors.get(1).plot.data[0].length);
   await page.waitForTimeout(300);
-  assert.equal(await page.evaluate(() => window.dashboard.motors.get(1).plot.data[0].length), frozen, "paused: no new data drawn");
+  assert.equal(
+    await page.evaluate(() => window.dashboard.motors.get(1).plot.data[0].length),
+    frozen,
+    "paused: no new data drawn",
+  );
   await card.getByRole("button", { name: "Resume" }).click();
   const over = card.locator(".u-over");
   const box = await over.boundingBox();
@@ -98,15 +131,24 @@ test("a live plot pauses, holds a zoom, shows values on hover and exports CSV", 
   await page.mouse.down();
   await page.mouse.move(box.x + box.width * 0.6, box.y + box.height / 2, { steps: 5 });
   await page.mouse.up();
-  const zoomed = await page.evaluate(() => { const u = window.dashboard.motors.get(1).plot; return [u.scales.x.min, u.scales.x.max]; });
+  const zoomed = await page.evaluate(() => {
+    const u = window.dashboard.motors.get(1).plot;
+    return [u.scales.x.min, u.scales.x.max];
+  });
   await page.waitForTimeout(400);
-  const held = await page.evaluate(() => { const u = window.dashboard.motors.get(1).plot; return [u.scales.x.min, u.scales.x.max]; });
+  const held = await page.evaluate(() => {
+    const u = window.dashboard.motors.get(1).plot;
+    return [u.scales.x.min, u.scales.x.max];
+  });
   assert.deepEqual(held, zoomed, "the zoom holds");
   await page.mouse.move(box.x + box.width * 0.5, box.y + box.height / 2);
   assert.match(await card.locator(".u-legend").textContent(), /\d+\.\d+ s/, "hover shows values");
   await over.dblclick();
   assert.equal(await card.getAttribute("data-paused"), "no", "double-click resumes");
-  const [download] = await Promise.all([page.waitForEvent("download"), card.getByRole("button", { name: "CSV" }).click()]);
+  const [download] = await Promise.all([
+    page.waitForEvent("download"),
+    card.getByRole("button", { name: "CSV" }).click(),
+  ]);
   const csv = readFileSync(await download.path(), "utf8");
   assert.match(csv.split("\n")[0], /^t_s,position_deg,device_position_deg,speed_rpm,current_a,target_deg$/);
   assert.ok(csv.split("\n").length > 10);
@@ -114,22 +156,35 @@ test("a live plot pauses, holds a zoom, shows values on hover and exports CSV", 
 
 test("blank, text, huge and negative fields are refused on the page; nothing is sent", async () => {
   const card = page.locator("#motor-2");
-  const [to, rpm] = [card.locator(".controls").first().locator("input").nth(0), card.locator(".controls").first().locator("input").nth(1)];
+  const [to, rpm] = [
+    card.locator(".controls").first().locator("input").nth(0),
+    card.locator(".controls").first().locator("input").nth(1),
+  ];
   const before = await motorPosition(2);
   const sent = () => page.evaluate(() => window.sentOps.filter((op) => op === "move").length);
   const moves = await sent();
-  for (const [target, speed, says] of [["", "60", /to: empty/], ["1e400", "60", /to: not a (finite )?number/], ["90", "-60", /must be above 0/], ["90", "", /move RPM: empty/]]) {
+  for (const [target, speed, says] of [
+    ["", "60", /to: empty/],
+    ["1e400", "60", /to: not a (finite )?number/],
+    ["90", "-60", /must be above 0/],
+    ["90", "", /move RPM: empty/],
+  ]) {
     await to.fill(target);
     await rpm.fill(speed);
     await card.getByRole("button", { name: "Move" }).click();
     await page.waitForFunction(() => document.querySelector("[aria-invalid=true]"));
     assert.match(await lastToast(), says);
   }
-  await to.evaluate((input) => { input.type = "text"; input.value = "ninety"; }); // what a browser without number inputs sends
+  await to.evaluate((input) => {
+    input.type = "text";
+    input.value = "ninety";
+  }); // what a browser without number inputs sends
   await rpm.fill("60");
   await card.getByRole("button", { name: "Move" }).click();
   assert.match(await lastToast(), /"ninety" is not a number/);
-  await to.evaluate((input) => { input.type = "number"; });
+  await to.evaluate((input) => {
+    input.type = "number";
+  });
   assert.equal(await sent(), moves, "no move went out");
   assert.ok(Math.abs((await motorPosition(2)) - before) < 1, "the motor stayed where it was");
   const close = page.locator("#messages .message .close").first();
@@ -148,7 +203,9 @@ test("a setting change is written, verified and shown", async () => {
   await row.getByRole("button", { name: "Write" }).click();
   await assert.doesNotReject(row.locator(".result.ok").waitFor({ timeout: 10000 }));
   assert.match(await row.locator(".result").textContent(), /verified: 77/);
-  await row.locator(".value").evaluate((cell) => { cell.textContent = ""; });
+  await row.locator(".value").evaluate((cell) => {
+    cell.textContent = "";
+  });
   await page.click("#settings-read"); // read back from the controller, not from the page
   await page.waitForFunction(() => document.querySelector("#setting-position-kp .value").textContent === "77");
   await row.locator("input").fill("");
@@ -157,7 +214,9 @@ test("a setting change is written, verified and shown", async () => {
   assert.match(await row.locator(".result").textContent(), /empty/);
   await row.locator("input").fill("300");
   await row.getByRole("button", { name: "Write" }).click();
-  await page.waitForFunction(() => /out of range/.test(document.querySelector("#setting-position-kp .result").textContent));
+  await page.waitForFunction(() =>
+    /out of range/.test(document.querySelector("#setting-position-kp .result").textContent),
+  );
   await page.screenshot({ path: join(SHOTS, "settings.png") });
 });
 
@@ -188,7 +247,10 @@ test("the raw view shows decoded frames, filterable, and can pause", async () =>
   await page.fill("#raw-filter", "id=1 position_feedback");
   await page.waitForFunction(() => document.querySelectorAll("#raw-table tbody tr").length > 0);
   const names = await page.locator("#raw-table tbody tr td:nth-child(4)").allTextContents();
-  assert.ok(names.every((name) => name === "position_feedback"), names.join(","));
+  assert.ok(
+    names.every((name) => name === "position_feedback"),
+    names.join(","),
+  );
   await page.check("#raw-pause");
   await page.waitForTimeout(300);
   const shown = await page.textContent("#raw-table tbody tr:first-child");
@@ -222,16 +284,28 @@ test("every malformed websocket message gets an error reply and the connection s
   const result = await page.evaluate(async () => {
     const ws = new WebSocket(`ws://${location.host}/ws`);
     const replies = [];
-    ws.onmessage = (event) => { const m = JSON.parse(event.data); if (m.type === "reply") replies.push(m); };
-    await new Promise((resolve) => { ws.onopen = resolve; });
+    ws.onmessage = (event) => {
+      const m = JSON.parse(event.data);
+      if (m.type === "reply") replies.push(m);
+    };
+    await new Promise((resolve) => {
+      ws.onopen = resolve;
+    });
     const bad = [
-      new Uint8Array([0, 1, 2, 3]), "{not json", "[".repeat(5000) + "]".repeat(5000),
-      '{"op":"move","id":1,"degrees":"inf","rpm":60}', '{"op":"move","id":1,"degrees":1e308,"rpm":60}',
-      '{"op":"move","id":1,"degrees":1e400,"rpm":60}', '{"op":"move","id":1,"degrees":Infinity,"rpm":60}',
-      '{"op":"run","id":1,"rpm":30,"ramp":1e300}', '{"op":"move","id":"1","degrees":10,"rpm":60}',
+      new Uint8Array([0, 1, 2, 3]),
+      "{not json",
+      "[".repeat(5000) + "]".repeat(5000),
+      '{"op":"move","id":1,"degrees":"inf","rpm":60}',
+      '{"op":"move","id":1,"degrees":1e308,"rpm":60}',
+      '{"op":"move","id":1,"degrees":1e400,"rpm":60}',
+      '{"op":"move","id":1,"degrees":Infinity,"rpm":60}',
+      '{"op":"run","id":1,"rpm":30,"ramp":1e300}',
+      '{"op":"move","id":"1","degrees":10,"rpm":60}',
       '{"op":"set","id":1,"name":"ratio","value":"inf"}',
       '{"op":"restore","document":{"format":"nurimc-backup/1","motors":[{"id":1,"settings":{"ratio":"inf"}}]}}',
-      '{"op":"move","id":1,"degrees":10,"rpm":-60}', '[]', '{"op":42}',
+      '{"op":"move","id":1,"degrees":10,"rpm":-60}',
+      "[]",
+      '{"op":42}',
     ];
     for (const message of bad) ws.send(message);
     const deadline = Date.now() + 5000;
@@ -244,8 +318,14 @@ test("every malformed websocket message gets an error reply and the connection s
   });
   const errors = result.replies.filter((r) => r.req !== "ok");
   assert.equal(errors.length, result.sent, JSON.stringify(result.replies.map((r) => r.error)));
-  assert.ok(errors.every((r) => r.ok === false && r.error && !/internal error/.test(r.error)), JSON.stringify(errors.map((r) => r.error)));
-  assert.ok(result.replies.some((r) => r.req === "ok" && r.ok), "a good message still works afterwards");
+  assert.ok(
+    errors.every((r) => r.ok === false && r.error && !/internal error/.test(r.error)),
+    JSON.stringify(errors.map((r) => r.error)),
+  );
+  assert.ok(
+    result.replies.some((r) => r.req === "ok" && r.ok),
+    "a good message still works afterwards",
+  );
   assert.equal(result.open, true);
 });
 
@@ -259,11 +339,15 @@ test("ID change keeps the library's rules; factory reset waits for the typed con
   await page.waitForFunction(() => /taken|already answers/.test(document.querySelector("#messages").textContent));
   await page.fill("#new-id", "7");
   await page.click("#change-id");
-  await page.waitForFunction(() => window.dashboard.motors.has(7) && !window.dashboard.motors.has(3), null, { timeout: 10000 });
+  await page.waitForFunction(() => window.dashboard.motors.has(7) && !window.dashboard.motors.has(3), null, {
+    timeout: 10000,
+  });
   await page.selectOption("#setup-motor", "7");
   await page.fill("#new-id", "3");
   await page.click("#change-id");
-  await page.waitForFunction(() => window.dashboard.motors.has(3) && !window.dashboard.motors.has(7), null, { timeout: 10000 });
+  await page.waitForFunction(() => window.dashboard.motors.has(3) && !window.dashboard.motors.has(7), null, {
+    timeout: 10000,
+  });
   await page.selectOption("#setup-motor", "3");
   assert.equal(await page.isDisabled("#factory-reset"), true);
   await page.fill("#reset-confirm", "RESET 2");
@@ -283,60 +367,115 @@ test("phone (390x844): no sideways scrolling, E-STOP in reach, touch targets of 
     await phone.waitForTimeout(50);
     const width = await phone.evaluate(() => document.documentElement.scrollWidth);
     assert.ok(width <= 390, `${view}: page is ${width} px wide`);
-    const small = await phone.evaluate(() => [...document.querySelectorAll("button, select, input:not([type=checkbox]), label:has(input[type=checkbox])")]
-      .filter((e) => e.offsetParent !== null && !e.closest(".u-legend"))
-      .map((e) => [e.id || e.textContent.trim().slice(0, 20) || e.tagName, e.getBoundingClientRect()])
-      .filter(([, r]) => r.width > 0 && (r.height < 40 || r.width < 40))
-      .map(([name, r]) => `${name} ${Math.round(r.width)}x${Math.round(r.height)}`));
+    const small = await phone.evaluate(() =>
+      [...document.querySelectorAll("button, select, input:not([type=checkbox]), label:has(input[type=checkbox])")]
+        .filter((e) => e.offsetParent !== null && !e.closest(".u-legend"))
+        .map((e) => [e.id || e.textContent.trim().slice(0, 20) || e.tagName, e.getBoundingClientRect()])
+        .filter(([, r]) => r.width > 0 && (r.height < 40 || r.width < 40))
+        .map(([name, r]) => `${name} ${Math.round(r.width)}x${Math.round(r.height)}`),
+    );
     assert.deepEqual(small, [], `${view}: targets under 40 px`);
   }
   await phone.click("nav button[data-view=motors]");
   await phone.mouse.wheel(0, 3000);
   await phone.waitForTimeout(100);
   const estop = await phone.locator("#estop").boundingBox();
-  assert.ok(estop.y >= 0 && estop.y + estop.height <= 844 && estop.x + estop.width <= 390, "E-STOP stays on screen when scrolled");
+  assert.ok(
+    estop.y >= 0 && estop.y + estop.height <= 844 && estop.x + estop.width <= 390,
+    "E-STOP stays on screen when scrolled",
+  );
   await phone.screenshot({ path: join(SHOTS, "phone.png") });
   await phone.close();
 });
 
 test("a sequence runs, is saved and loaded as JSON, and the E-STOP ends it", async () => {
   await page.click("nav button[data-view=sequence]");
-  await page.evaluate(() => window.dashboard.loadSequence({ format: "nurimc-sequence/1", steps: [
-    { kind: "move", id: 1, degrees: 10, rpm: 600 }, { kind: "wait", seconds: 0.3 }, { kind: "set", id: 2, name: "position-kp", value: 60 },
-  ] }));
+  await page.evaluate(() =>
+    window.dashboard.loadSequence({
+      format: "nurimc-sequence/1",
+      steps: [
+        { kind: "move", id: 1, degrees: 10, rpm: 600 },
+        { kind: "wait", seconds: 0.3 },
+        { kind: "set", id: 2, name: "position-kp", value: 60 },
+      ],
+    }),
+  );
   await page.click("#seq-run");
-  await page.waitForFunction(() => document.querySelector("#seq-status").dataset.state === "done", null, { timeout: 10000 });
+  await page.waitForFunction(() => document.querySelector("#seq-status").dataset.state === "done", null, {
+    timeout: 10000,
+  });
   const [download] = await Promise.all([page.waitForEvent("download"), page.click("#seq-save")]);
   const saved = JSON.parse(readFileSync(await download.path(), "utf8"));
-  assert.deepEqual(saved.steps.map((s) => s.kind), ["move", "wait", "set"]);
-  await page.setInputFiles("#seq-load", { name: "seq.json", mimeType: "application/json", buffer: Buffer.from(JSON.stringify({
-    format: "nurimc-sequence/1", steps: [{ kind: "wait", seconds: 5 }, { kind: "move", id: 1, degrees: -200, rpm: 600 }] })) });
+  assert.deepEqual(
+    saved.steps.map((s) => s.kind),
+    ["move", "wait", "set"],
+  );
+  await page.setInputFiles("#seq-load", {
+    name: "seq.json",
+    mimeType: "application/json",
+    buffer: Buffer.from(
+      JSON.stringify({
+        format: "nurimc-sequence/1",
+        steps: [
+          { kind: "wait", seconds: 5 },
+          { kind: "move", id: 1, degrees: -200, rpm: 600 },
+        ],
+      }),
+    ),
+  });
   await page.waitForFunction(() => document.querySelectorAll("#seq-list li").length === 2);
   const moves = await page.evaluate(() => window.sentOps.filter((op) => op === "move").length);
   await page.click("#seq-run");
   await page.waitForFunction(() => document.querySelector("#seq-status").dataset.state === "running");
   await page.click("#estop");
-  await page.waitForFunction(() => document.querySelector("#seq-status").dataset.state === "stopped", null, { timeout: 3000 });
+  await page.waitForFunction(() => document.querySelector("#seq-status").dataset.state === "stopped", null, {
+    timeout: 3000,
+  });
   await page.waitForTimeout(200);
-  assert.equal(await page.evaluate(() => window.sentOps.filter((op) => op === "move").length), moves, "the move after the wait never went out");
+  assert.equal(
+    await page.evaluate(() => window.sentOps.filter((op) => op === "move").length),
+    moves,
+    "the move after the wait never went out",
+  );
 });
 
-for (const [what, count] of [["holds", 500], ["moves", 300]]) {
+for (const [what, count] of [
+  ["holds", 500],
+  ["moves", 300],
+]) {
   test(`Escape behind ${count} queued ${what} leaves every motor with control off`, async () => {
     await page.click("nav button[data-view=motors]");
-    await page.evaluate(([what, count]) => {
-      for (let n = 0; n < count; n++) {
-        const id = 1 + (n % 3);
-        const request = what === "holds" ? window.dashboard.link.request("hold", { id }) : window.dashboard.link.request("move", { id, degrees: (n % 40) * 10 - 200, rpm: 300 });
-        request.catch(() => {});
-      }
-    }, [what, count]);
-    await page.evaluate(() => { delete document.querySelector("#estop").dataset.lastResult; });
+    await page.evaluate(
+      ([what, count]) => {
+        for (let n = 0; n < count; n++) {
+          const id = 1 + (n % 3);
+          const request =
+            what === "holds"
+              ? window.dashboard.link.request("hold", { id })
+              : window.dashboard.link.request("move", { id, degrees: (n % 40) * 10 - 200, rpm: 300 });
+          request.catch(() => {});
+        }
+      },
+      [what, count],
+    );
+    await page.evaluate(() => {
+      delete document.querySelector("#estop").dataset.lastResult;
+    });
     await page.keyboard.press("Escape");
-    await page.waitForFunction(() => (document.querySelector("#estop").dataset.lastResult ?? "").startsWith("{"), null, { timeout: 20000 });
+    await page.waitForFunction(
+      () => (document.querySelector("#estop").dataset.lastResult ?? "").startsWith("{"),
+      null,
+      { timeout: 20000 },
+    );
     await page.waitForTimeout(300); // anything from before the stop would have run by now
-    assert.deepEqual(await controls(), { 1: "off", 2: "off", 3: "off" }, await page.getAttribute("#estop", "data-last-result"));
-    const shown = await page.evaluate(() => [...document.querySelectorAll(".card")].map((card) => card.dataset.control));
+    assert.deepEqual(
+      await controls(),
+      { 1: "off", 2: "off", 3: "off" },
+      await page.getAttribute("#estop", "data-last-result"),
+    );
+    const shown = await page.evaluate(() =>
+      [...document.querySelectorAll(".card")].map((card) => card.dataset.control),
+    );
     assert.deepEqual(shown, ["off", "off", "off"], await page.getAttribute("#estop", "data-last-result"));
   });
 }
@@ -348,10 +487,27 @@ test("the browser console stayed clean: no errors, no failed loads (favicon incl
 function handshake(url, headers) {
   const { host, port } = new URL(url);
   return new Promise((resolve, reject) => {
-    const req = httpRequest({ host: "127.0.0.1", port, path: "/ws", headers: {
-      Connection: "Upgrade", Upgrade: "websocket", "Sec-WebSocket-Version": "13", "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==", Host: host, ...headers } });
-    req.on("upgrade", (response, socket) => { socket.destroy(); resolve(response.statusCode); });
-    req.on("response", (response) => { response.resume(); resolve(response.statusCode); });
+    const req = httpRequest({
+      host: "127.0.0.1",
+      port,
+      path: "/ws",
+      headers: {
+        Connection: "Upgrade",
+        Upgrade: "websocket",
+        "Sec-WebSocket-Version": "13",
+        "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==",
+        Host: host,
+        ...headers,
+      },
+    });
+    req.on("upgrade", (response, socket) => {
+      socket.destroy();
+      resolve(response.statusCode);
+    });
+    req.on("response", (response) => {
+      response.resume();
+      resolve(response.statusCode);
+    });
     req.on("error", reject);
     req.end();
   });
@@ -362,7 +518,11 @@ test("a cross-origin websocket is refused; the console's own origin is accepted"
   assert.equal(await handshake(dashboard.url, { Origin: `http://${own.host}` }), 101);
   assert.equal(await handshake(dashboard.url, { Origin: "http://evil.example" }), 403);
   assert.equal(await handshake(dashboard.url, {}), 403, "no Origin");
-  assert.equal(await handshake(dashboard.url, { Origin: "http://evil.example", Host: "evil.example" }), 403, "rebinding Host");
+  assert.equal(
+    await handshake(dashboard.url, { Origin: "http://evil.example", Host: "evil.example" }),
+    403,
+    "rebinding Host",
+  );
 });
 
 test("server killed: banner, controls off, E-STOP says unreachable at once; restarted: reconnects, motors back", async () => {
@@ -374,14 +534,21 @@ test("server killed: banner, controls off, E-STOP says unreachable at once; rest
   assert.match(await page.textContent("#banner"), /unreachable/i);
   assert.equal(await page.evaluate(() => document.querySelector("#controls").disabled), true, "controls disabled");
   assert.equal(await page.locator("#motor-1").getByRole("button", { name: "Move" }).isDisabled(), true);
-  const said = await page.evaluate(() => { document.querySelector("#estop").click(); return document.querySelector("#banner").textContent; });
+  const said = await page.evaluate(() => {
+    document.querySelector("#estop").click();
+    return document.querySelector("#banner").textContent;
+  });
   assert.match(said, /E-STOP NOT SENT/, "said at once, in the same click");
   assert.equal(await page.getAttribute("#estop", "data-last-result"), "unreachable");
   await page.screenshot({ path: join(SHOTS, "disconnected.png") });
   dashboard = await startDashboard(["--listen", `127.0.0.1:${port}`]);
   await page.waitForSelector("#banner.hidden", { state: "attached", timeout: 15000 });
-  await page.waitForFunction(() => window.dashboard.connected && window.dashboard.motors.size === 3, null, { timeout: 20000 });
-  await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found === "1,2,3", null, { timeout: 20000 });
+  await page.waitForFunction(() => window.dashboard.connected && window.dashboard.motors.size === 3, null, {
+    timeout: 20000,
+  });
+  await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found === "1,2,3", null, {
+    timeout: 20000,
+  });
   const t = await page.evaluate(() => window.dashboard.samplesReceived);
   await page.waitForFunction((t) => window.dashboard.samplesReceived > t + 10, t, { timeout: 10000 });
   assert.equal(await page.evaluate(() => document.querySelector("#controls").disabled), false, "controls back");
@@ -395,7 +562,9 @@ test("direct mode: without the server the page offers Web Serial through the Typ
     const direct = await browser.newPage();
     direct.setDefaultTimeout(15000);
     await direct.goto(site.url);
-    await direct.waitForFunction(() => window.dashboard.mode === "direct" && document.querySelector("#status").textContent);
+    await direct.waitForFunction(
+      () => window.dashboard.mode === "direct" && document.querySelector("#status").textContent,
+    );
     assert.match(await direct.textContent("#mode"), /direct/);
     assert.ok(await direct.isVisible("#connect"));
     assert.equal(await direct.evaluate(() => typeof window.dashboard.lib.Bus), "function");
@@ -412,5 +581,8 @@ test("direct mode: without the server the page offers Web Serial through the Typ
 test("the uPlot copied from npm next to the page is the version e2e/package.json pins", () => {
   const pinned = JSON.parse(readFileSync(join(ROOT, "e2e/node_modules/uplot/package.json"))).version;
   assert.equal(readFileSync(join(STATIC, "vendor/uplot/VERSION"), "utf8").trim(), pinned);
-  assert.deepEqual(readFileSync(join(STATIC, "vendor/uplot/uPlot.esm.js")), readFileSync(join(ROOT, "e2e/node_modules/uplot/dist/uPlot.esm.js")));
+  assert.deepEqual(
+    readFileSync(join(STATIC, "vendor/uplot/uPlot.esm.js")),
+    readFileSync(join(ROOT, "e2e/node_modules/uplot/dist/uPlot.esm.js")),
+  );
 });

@@ -11,6 +11,7 @@ Usage: python3 tools/make_vectors.py [--check]
 
 from __future__ import annotations
 
+import itertools
 import json
 import random
 import sys
@@ -26,6 +27,7 @@ OUT = speclib.ROOT / "spec" / "vectors"
 
 
 # ---- reference model -------------------------------------------------------
+
 
 def frame(msg_id: int, mode: int, data: bytes) -> bytes:
     size = len(data) + 2
@@ -79,6 +81,7 @@ def scan(stream: bytes) -> dict[str, Any]:
 
 
 # ---- vector sets -----------------------------------------------------------
+
 
 def hexs(raw: bytes) -> str:
     return raw.hex()
@@ -143,35 +146,79 @@ def message_vectors() -> list[dict[str, Any]]:
             out.append(vec(tag + ": decode", {"op": "decode", "hex": hexs(raw)}, decode(raw)))
         if msg["kind"] == "command":
             raw = encode(name, 0xFF, cases["typical"])
-            out.append(vec(f"{name} broadcast: encode", encode_request(name, 0xFF, cases["typical"]), {"hex": hexs(raw)}))
+            out.append(
+                vec(f"{name} broadcast: encode", encode_request(name, 0xFF, cases["typical"]), {"hex": hexs(raw)})
+            )
             out.append(vec(f"{name} broadcast: decode", {"op": "decode", "hex": hexs(raw)}, decode(raw)))
         else:
-            out.append(vec(f"{name} id 255 is broadcast, not allowed", encode_request(name, 0xFF, cases["typical"]), {"error": "range", "field": "id"}))
-        out.append(vec(f"{name} id 256", encode_request(name, 256, cases["typical"]), {"error": "range", "field": "id"}))
+            out.append(
+                vec(
+                    f"{name} id 255 is broadcast, not allowed",
+                    encode_request(name, 0xFF, cases["typical"]),
+                    {"error": "range", "field": "id"},
+                )
+            )
+        out.append(
+            vec(f"{name} id 256", encode_request(name, 256, cases["typical"]), {"error": "range", "field": "id"})
+        )
         out.append(vec(f"{name} id -1", encode_request(name, -1, cases["typical"]), {"error": "range", "field": "id"}))
         for f in fields:
             for bad in (f["min"] - 1, f["max"] + 1, 1 << (8 * f["width"])):
                 if 0 <= bad < (1 << 8 * f["width"]) and f["min"] <= bad <= f["max"]:
                     continue
                 values = dict(cases["typical"], **{f["name"]: bad})
-                out.append(vec(f"{name}.{f['name']} = {bad} out of range", encode_request(name, 1, values), {"error": "range", "field": f["name"]}))
+                out.append(
+                    vec(
+                        f"{name}.{f['name']} = {bad} out of range",
+                        encode_request(name, 1, values),
+                        {"error": "range", "field": f["name"]},
+                    )
+                )
             values = dict(cases["typical"])
             del values[f["name"]]
-            out.append(vec(f"{name} without {f['name']}", encode_request(name, 1, values), {"error": "missing_field", "field": f["name"]}))
+            out.append(
+                vec(
+                    f"{name} without {f['name']}",
+                    encode_request(name, 1, values),
+                    {"error": "missing_field", "field": f["name"]},
+                )
+            )
             for wrong in ("12", 1.5, True, None):
                 values = dict(cases["typical"], **{f["name"]: wrong})
-                out.append(vec(f"{name}.{f['name']} = {wrong!r} is not an integer", encode_request(name, 1, values), {"error": "type", "field": f["name"]}))
+                out.append(
+                    vec(
+                        f"{name}.{f['name']} = {wrong!r} is not an integer",
+                        encode_request(name, 1, values),
+                        {"error": "type", "field": f["name"]},
+                    )
+                )
         if fields:
             # Out-of-range values in an otherwise valid frame decode as they are.
             values = {f["name"]: (1 << 8 * f["width"]) - 1 for f in fields}
             raw = encode(name, 3, values)
-            out.append(vec(f"{name} with every field 0xFF..: decode as is", {"op": "decode", "hex": hexs(raw)}, decode(raw)))
+            out.append(
+                vec(f"{name} with every field 0xFF..: decode as is", {"op": "decode", "hex": hexs(raw)}, decode(raw))
+            )
         values = dict(cases["typical"], bogus=1)
-        out.append(vec(f"{name} with an unknown field", encode_request(name, 1, values), {"error": "unknown_field", "field": "bogus"}))
+        out.append(
+            vec(
+                f"{name} with an unknown field",
+                encode_request(name, 1, values),
+                {"error": "unknown_field", "field": "bogus"},
+            )
+        )
     out.append(vec("unknown message", {"op": "encode", "id": 0, "message": "warp_drive"}, {"error": "unknown_message"}))
     out.append(vec("message missing", {"op": "encode", "id": 0}, {"error": "missing_field", "field": "message"}))
-    out.append(vec("id missing", {"op": "encode", "message": "request_ping"}, {"error": "missing_field", "field": "id"}))
-    out.append(vec("id not an integer", {"op": "encode", "id": "0", "message": "request_ping"}, {"error": "type", "field": "id"}))
+    out.append(
+        vec("id missing", {"op": "encode", "message": "request_ping"}, {"error": "missing_field", "field": "id"})
+    )
+    out.append(
+        vec(
+            "id not an integer",
+            {"op": "encode", "id": "0", "message": "request_ping"},
+            {"error": "type", "field": "id"},
+        )
+    )
     return out
 
 
@@ -265,11 +312,13 @@ def stream_vectors() -> list[dict[str, Any]]:
             if rng.random() < 0.6:
                 parts.append(rng.choice(frames))
             else:
-                parts.append(bytes(rng.choice([0xFF, 0xFE, 0x00, rng.randrange(256)]) for _ in range(rng.randint(1, 9))))
+                parts.append(
+                    bytes(rng.choice([0xFF, 0xFE, 0x00, rng.randrange(256)]) for _ in range(rng.randint(1, 9)))
+                )
         stream = b"".join(parts)
         cuts = sorted(rng.sample(range(1, len(stream)), min(3, len(stream) - 1))) if len(stream) > 1 else []
         bounds = [0, *cuts, len(stream)]
-        add(f"random mix {i}", stream, [stream[a:b] for a, b in zip(bounds, bounds[1:])])
+        add(f"random mix {i}", stream, [stream[a:b] for a, b in itertools.pairwise(bounds)])
     for i in range(4):
         noise = bytes(rng.randrange(256) for _ in range(64))
         add(f"random noise {i}", noise)
@@ -309,7 +358,13 @@ def edge_vectors() -> list[dict[str, Any]]:
     out.append(line_vec("line of a lone \\r", [("\r", 1)], BAD_REQUEST))
     out.append(line_vec("\\r\\n line ending", [(decode_line + "\r", 1)], decoded_ans))
     out.append(line_vec("\\r between tokens is whitespace", [(decode_line.replace(",", "\r,"), 1)], decoded_ans))
-    out.append(line_vec("\\r alone in the middle of a line is no line end", [('{"op":"decode",\r"hex":"' + hexs(ping) + '"}', 1)], decoded_ping))
+    out.append(
+        line_vec(
+            "\\r alone in the middle of a line is no line end",
+            [('{"op":"decode",\r"hex":"' + hexs(ping) + '"}', 1)],
+            decoded_ping,
+        )
+    )
     out.append(line_vec("raw \\r inside a string", [('{"op":"decode","hex":"ff\rfe"}', 1)], BAD_REQUEST))
     out.append(line_vec("raw tab inside a string", [('{"op":"decode\t"}', 1)], BAD_REQUEST))
     out.append(line_vec("leading and trailing whitespace", [(" \t" + decode_line + " \t ", 1)], decoded_ans))
@@ -329,17 +384,36 @@ def edge_vectors() -> list[dict[str, Any]]:
     out.append(bytes_vec("byte order mark", b"\xef\xbb\xbf" + decode_line.encode(), BAD_REQUEST))
     out.append(line_vec("escaped lone high surrogate", [('{"op":"\\ud800"}', 1)], BAD_REQUEST))
     out.append(line_vec("escaped lone low surrogate", [('{"op":"x\\udc00y"}', 1)], BAD_REQUEST))
-    out.append(line_vec("escaped surrogate pair is one character", [('{"op":"\\ud83d\\ude00"}', 1)], {"error": "unknown_op"}))
-    out.append(line_vec("valid UTF-8 key is an unknown field, echoed",
-                        [('{"op":"encode","id":0,"message":"request_ping","\u00e9t\u00e9":1}', 1)],
-                        {"error": "unknown_field", "field": "\u00e9t\u00e9"}))
+    out.append(
+        line_vec("escaped surrogate pair is one character", [('{"op":"\\ud83d\\ude00"}', 1)], {"error": "unknown_op"})
+    )
+    out.append(
+        line_vec(
+            "valid UTF-8 key is an unknown field, echoed",
+            [('{"op":"encode","id":0,"message":"request_ping","\u00e9t\u00e9":1}', 1)],
+            {"error": "unknown_field", "field": "\u00e9t\u00e9"},
+        )
+    )
 
     # strict JSON
     for text in ("NaN", "Infinity", "-Infinity", "01", "+1", ".5", "1.", "-", "1e", "0x10", "'x'"):
-        out.append(line_vec(f"{text} is not a JSON value",
-                            [('{"op":"encode","id":0,"message":"request_ping","x":' + text + "}", 1)], BAD_REQUEST))
-    out.append(line_vec("NaN as a field value", [('{"op":"encode","id":1,"message":"position_gains","kp":NaN,"ki":2,"kd":3,"rated_current":4}', 1)], BAD_REQUEST))
-    out.append(line_vec("Infinity as the id", [('{"op":"encode","id":Infinity,"message":"request_ping"}', 1)], BAD_REQUEST))
+        out.append(
+            line_vec(
+                f"{text} is not a JSON value",
+                [('{"op":"encode","id":0,"message":"request_ping","x":' + text + "}", 1)],
+                BAD_REQUEST,
+            )
+        )
+    out.append(
+        line_vec(
+            "NaN as a field value",
+            [('{"op":"encode","id":1,"message":"position_gains","kp":NaN,"ki":2,"kd":3,"rated_current":4}', 1)],
+            BAD_REQUEST,
+        )
+    )
+    out.append(
+        line_vec("Infinity as the id", [('{"op":"encode","id":Infinity,"message":"request_ping"}', 1)], BAD_REQUEST)
+    )
     out.append(line_vec("trailing comma", [('{"op":"decode","hex":"",}', 1)], BAD_REQUEST))
     out.append(line_vec("comment", [('{"op":"decode"/* c */,"hex":""}', 1)], BAD_REQUEST))
     out.append(line_vec("single-quoted key", [("{'op':'decode'}", 1)], BAD_REQUEST))
@@ -347,51 +421,136 @@ def edge_vectors() -> list[dict[str, Any]]:
     out.append(line_vec("bad escape", [('{"op":"\\x41"}', 1)], BAD_REQUEST))
     out.append(line_vec("unterminated string", [('{"op":"decode', 1)], BAD_REQUEST))
     out.append(line_vec("unclosed object", [('{"op":"decode","hex":""', 1)], BAD_REQUEST))
-    out.append(line_vec("duplicate keys: the last one counts",
-                        [('{"op":"encode","op":"decode","hex":"00","hex":"' + hexs(ping) + '"}', 1)], decoded_ping))
-    out.append(line_vec("escapes in names are names", [('{"\\u006fp":"\\u0064ecode","hex":"' + hexs(ping) + '"}', 1)], decoded_ping))
+    out.append(
+        line_vec(
+            "duplicate keys: the last one counts",
+            [('{"op":"encode","op":"decode","hex":"00","hex":"' + hexs(ping) + '"}', 1)],
+            decoded_ping,
+        )
+    )
+    out.append(
+        line_vec(
+            "escapes in names are names", [('{"\\u006fp":"\\u0064ecode","hex":"' + hexs(ping) + '"}', 1)], decoded_ping
+        )
+    )
 
     # numbers: integers are written as integers
     for text in ("0.0", "1.0", "-0.0", "1e2", "1E0", "2.5e1", "1e400", "-1e400", "1e-400"):
-        out.append(line_vec(f"{text} is not an integer (field)",
-                            [('{"op":"encode","id":1,"message":"position_gains","kp":' + text + ',"ki":2,"kd":3,"rated_current":4}', 1)],
-                            {"error": "type", "field": "kp"}))
-        out.append(line_vec(f"{text} is not an integer (id)",
-                            [('{"op":"encode","id":' + text + ',"message":"request_ping"}', 1)],
-                            {"error": "type", "field": "id"}))
-    out.append(line_vec("-0 is the integer 0",
-                        [('{"op":"encode","id":-0,"message":"position_gains","kp":1,"ki":-0,"kd":3,"rated_current":4}', 1)],
-                        {"hex": hexs(encode("position_gains", 0, dict(gains, ki=0)))}))
+        out.append(
+            line_vec(
+                f"{text} is not an integer (field)",
+                [
+                    (
+                        '{"op":"encode","id":1,"message":"position_gains","kp":'
+                        + text
+                        + ',"ki":2,"kd":3,"rated_current":4}',
+                        1,
+                    )
+                ],
+                {"error": "type", "field": "kp"},
+            )
+        )
+        out.append(
+            line_vec(
+                f"{text} is not an integer (id)",
+                [('{"op":"encode","id":' + text + ',"message":"request_ping"}', 1)],
+                {"error": "type", "field": "id"},
+            )
+        )
+    out.append(
+        line_vec(
+            "-0 is the integer 0",
+            [('{"op":"encode","id":-0,"message":"position_gains","kp":1,"ki":-0,"kd":3,"rated_current":4}', 1)],
+            {"hex": hexs(encode("position_gains", 0, dict(gains, ki=0)))},
+        )
+    )
     for text in ("9007199254740993", "123456789012345678901234567890", "1" + "0" * 5000, "-" + "9" * 5000):
-        label = text if len(text) < 40 else f"an integer of {len(text.lstrip('-'))} digits{' (negative)' if text[0] == '-' else ''}"
-        out.append(line_vec(f"{label} is out of range (field)",
-                            [('{"op":"encode","id":1,"message":"position_gains","kp":' + text + ',"ki":2,"kd":3,"rated_current":4}', 1)],
-                            {"error": "range", "field": "kp"}))
-        out.append(line_vec(f"{label} is out of range (id)",
-                            [('{"op":"encode","id":' + text + ',"message":"request_ping"}', 1)],
-                            {"error": "range", "field": "id"}))
+        label = (
+            text
+            if len(text) < 40
+            else f"an integer of {len(text.lstrip('-'))} digits{' (negative)' if text[0] == '-' else ''}"
+        )
+        out.append(
+            line_vec(
+                f"{label} is out of range (field)",
+                [
+                    (
+                        '{"op":"encode","id":1,"message":"position_gains","kp":'
+                        + text
+                        + ',"ki":2,"kd":3,"rated_current":4}',
+                        1,
+                    )
+                ],
+                {"error": "range", "field": "kp"},
+            )
+        )
+        out.append(
+            line_vec(
+                f"{label} is out of range (id)",
+                [('{"op":"encode","id":' + text + ',"message":"request_ping"}', 1)],
+                {"error": "range", "field": "id"},
+            )
+        )
 
     # NUL and other characters inside strings: strings compare whole
-    out.append(vec("NUL after a message name", {"op": "encode", "id": 0, "message": "request_ping\u0000"}, {"error": "unknown_message"}))
-    out.append(vec("NUL before a message name", {"op": "encode", "id": 0, "message": "\u0000request_ping"}, {"error": "unknown_message"}))
+    out.append(
+        vec(
+            "NUL after a message name",
+            {"op": "encode", "id": 0, "message": "request_ping\u0000"},
+            {"error": "unknown_message"},
+        )
+    )
+    out.append(
+        vec(
+            "NUL before a message name",
+            {"op": "encode", "id": 0, "message": "\u0000request_ping"},
+            {"error": "unknown_message"},
+        )
+    )
     out.append(vec("NUL inside hex (decode)", {"op": "decode", "hex": hexs(ping) + "\u0000"}, {"error": "bad_hex"}))
     out.append(vec("NUL inside hex (parse)", {"op": "parse", "hex": hexs(ping) + "\u000000"}, {"error": "bad_hex"}))
     out.append(vec("NUL inside a chunk", {"op": "parse", "chunks": [hexs(ping), "\u0000"]}, {"error": "bad_hex"}))
     out.append(vec("NUL after the op", {"op": "decode\u0000", "hex": hexs(ping)}, {"error": "unknown_op"}))
-    out.append(vec("NUL in a field name", {"op": "encode", "id": 1, "message": "position_gains", **gains, "kp\u0000": 1},
-                   {"error": "unknown_field", "field": "kp\u0000"}))
-    out.append(vec("NUL alone as a field name", {"op": "encode", "id": 0, "message": "request_ping", "\u0000": 1},
-                   {"error": "unknown_field", "field": "\u0000"}))
-    out.append(vec("a field named __proto__", {"op": "encode", "id": 0, "message": "request_ping", "__proto__": 1},
-                   {"error": "unknown_field", "field": "__proto__"}))
-    out.append(vec("a field named constructor", {"op": "encode", "id": 0, "message": "request_ping", "constructor": 1},
-                   {"error": "unknown_field", "field": "constructor"}))
-    out.append(vec("message named toString", {"op": "encode", "id": 0, "message": "toString"}, {"error": "unknown_message"}))
-    out.append(vec("message named __proto__", {"op": "encode", "id": 0, "message": "__proto__"}, {"error": "unknown_message"}))
+    out.append(
+        vec(
+            "NUL in a field name",
+            {"op": "encode", "id": 1, "message": "position_gains", **gains, "kp\u0000": 1},
+            {"error": "unknown_field", "field": "kp\u0000"},
+        )
+    )
+    out.append(
+        vec(
+            "NUL alone as a field name",
+            {"op": "encode", "id": 0, "message": "request_ping", "\u0000": 1},
+            {"error": "unknown_field", "field": "\u0000"},
+        )
+    )
+    out.append(
+        vec(
+            "a field named __proto__",
+            {"op": "encode", "id": 0, "message": "request_ping", "__proto__": 1},
+            {"error": "unknown_field", "field": "__proto__"},
+        )
+    )
+    out.append(
+        vec(
+            "a field named constructor",
+            {"op": "encode", "id": 0, "message": "request_ping", "constructor": 1},
+            {"error": "unknown_field", "field": "constructor"},
+        )
+    )
+    out.append(
+        vec("message named toString", {"op": "encode", "id": 0, "message": "toString"}, {"error": "unknown_message"})
+    )
+    out.append(
+        vec("message named __proto__", {"op": "encode", "id": 0, "message": "__proto__"}, {"error": "unknown_message"})
+    )
     out.append(vec("op named constructor", {"op": "constructor"}, {"error": "unknown_op"}))
     out.append(vec("unicode digits are not hex", {"op": "decode", "hex": "\u0661\u0662"}, {"error": "bad_hex"}))
     out.append(vec("full-width hex digits are not hex", {"op": "decode", "hex": "\uff46\uff46"}, {"error": "bad_hex"}))
-    out.append(vec("hex with a trailing newline escape", {"op": "decode", "hex": hexs(ping) + "\n"}, {"error": "bad_hex"}))
+    out.append(
+        vec("hex with a trailing newline escape", {"op": "decode", "hex": hexs(ping) + "\n"}, {"error": "bad_hex"})
+    )
     out.append(vec("upper-case hex", {"op": "decode", "hex": hexs(ping).upper()}, decoded_ping))
 
     # requests missing parts
@@ -405,17 +564,30 @@ def edge_vectors() -> list[dict[str, Any]]:
     out.append(vec("decode with hex a list", {"op": "decode", "hex": [hexs(ping)]}, {"error": "bad_hex"}))
     out.append(vec("message a number", {"op": "encode", "id": 0, "message": 160}, {"error": "unknown_message"}))
     out.append(vec("message null", {"op": "encode", "id": 0, "message": None}, {"error": "unknown_message"}))
-    out.append(vec("id null", {"op": "encode", "id": None, "message": "request_ping"}, {"error": "type", "field": "id"}))
-    out.append(vec("id true", {"op": "encode", "id": True, "message": "request_ping"}, {"error": "type", "field": "id"}))
-    out.append(vec("id a list", {"op": "encode", "id": [1], "message": "request_ping"}, {"error": "type", "field": "id"}))
-    out.append(vec("field an object", {"op": "encode", "id": 1, "message": "position_gains", **dict(gains, kp={"v": 1})},
-                   {"error": "type", "field": "kp"}))
+    out.append(
+        vec("id null", {"op": "encode", "id": None, "message": "request_ping"}, {"error": "type", "field": "id"})
+    )
+    out.append(
+        vec("id true", {"op": "encode", "id": True, "message": "request_ping"}, {"error": "type", "field": "id"})
+    )
+    out.append(
+        vec("id a list", {"op": "encode", "id": [1], "message": "request_ping"}, {"error": "type", "field": "id"})
+    )
+    out.append(
+        vec(
+            "field an object",
+            {"op": "encode", "id": 1, "message": "position_gains", **dict(gains, kp={"v": 1})},
+            {"error": "type", "field": "kp"},
+        )
+    )
 
     # chunks forms
     both = scan(ping + pos_ans)
     out.append(vec("chunks null: hex is the stream", {"op": "parse", "chunks": None, "hex": hexs(ping)}, scan(ping)))
     out.append(vec("chunks null and no hex", {"op": "parse", "chunks": None}, {"error": "bad_hex"}))
-    out.append(vec("chunks given: hex is ignored", {"op": "parse", "chunks": [hexs(ping), hexs(pos_ans)], "hex": "zz"}, both))
+    out.append(
+        vec("chunks given: hex is ignored", {"op": "parse", "chunks": [hexs(ping), hexs(pos_ans)], "hex": "zz"}, both)
+    )
     out.append(vec("chunks empty list", {"op": "parse", "chunks": []}, {"frames": [], "dropped_bytes": 0}))
     out.append(vec("chunks of empty strings", {"op": "parse", "chunks": ["", hexs(ping), ""]}, scan(ping)))
     out.append(vec("chunks a string", {"op": "parse", "chunks": hexs(ping)}, {"error": "bad_hex"}))
@@ -424,7 +596,9 @@ def edge_vectors() -> list[dict[str, Any]]:
     out.append(vec("chunks holding null", {"op": "parse", "chunks": [hexs(ping), None]}, {"error": "bad_hex"}))
     out.append(vec("chunks holding a number", {"op": "parse", "chunks": [12]}, {"error": "bad_hex"}))
     out.append(vec("chunks holding a list", {"op": "parse", "chunks": [[hexs(ping)]]}, {"error": "bad_hex"}))
-    out.append(vec("chunks holding an odd-length chunk", {"op": "parse", "chunks": [hexs(ping), "f"]}, {"error": "bad_hex"}))
+    out.append(
+        vec("chunks holding an odd-length chunk", {"op": "parse", "chunks": [hexs(ping), "f"]}, {"error": "bad_hex"})
+    )
     out.append(vec("parse with neither hex nor chunks", {"op": "parse"}, {"error": "bad_hex"}))
 
     # nesting limit
@@ -433,31 +607,70 @@ def edge_vectors() -> list[dict[str, Any]]:
         inner = depth - 1
         return [('{"op":"teleport","x":', 1), ("[", inner), ("]" if close else "", inner), ("}" if close else "", 1)]
 
-    out.append(line_vec(f"nesting {MAX_DEPTH} levels (the limit) is answered", nested(MAX_DEPTH), {"error": "unknown_op"}))
+    out.append(
+        line_vec(f"nesting {MAX_DEPTH} levels (the limit) is answered", nested(MAX_DEPTH), {"error": "unknown_op"})
+    )
     out.append(line_vec(f"nesting {MAX_DEPTH + 1} levels", nested(MAX_DEPTH + 1), BAD_REQUEST))
     out.append(line_vec("nesting 1,000 levels", nested(1000), BAD_REQUEST))
     out.append(line_vec("nesting 100,000 levels", nested(100_000), BAD_REQUEST))
     out.append(line_vec("nesting 100,000 levels, never closed", nested(100_000, close=False), BAD_REQUEST))
     out.append(line_vec("100,000 nested arrays", [("[", 100_000), ("]", 100_000)], BAD_REQUEST))
     out.append(line_vec("100,000 nested objects", [('{"a":', 100_000), ("1", 1), ("}", 100_000)], BAD_REQUEST))
-    out.append(line_vec("nesting 100,000 levels inside chunks", [('{"op":"parse","chunks":', 1), ("[", 100_000), ("]", 100_000), ("}", 1)], BAD_REQUEST))
+    out.append(
+        line_vec(
+            "nesting 100,000 levels inside chunks",
+            [('{"op":"parse","chunks":', 1), ("[", 100_000), ("]", 100_000), ("}", 1)],
+            BAD_REQUEST,
+        )
+    )
 
     # size limit
     padding = MAX_LINE_BYTES - len(decode_line)
-    out.append(line_vec("a line of exactly 4 MiB is answered", [(decode_line[:-1], 1), (" ", padding), ("}", 1)], decoded_ans))
-    out.append(line_vec("a line of 4 MiB + 1 byte is bad_request", [(decode_line[:-1], 1), (" ", padding + 1), ("}", 1)], BAD_REQUEST))
-    out.append(line_vec("a line of 4 MiB + 1 byte of hex", [('{"op":"parse","hex":"', 1), ("00", MAX_LINE_BYTES // 2), ('"}', 1)], BAD_REQUEST))
+    out.append(
+        line_vec("a line of exactly 4 MiB is answered", [(decode_line[:-1], 1), (" ", padding), ("}", 1)], decoded_ans)
+    )
+    out.append(
+        line_vec(
+            "a line of 4 MiB + 1 byte is bad_request",
+            [(decode_line[:-1], 1), (" ", padding + 1), ("}", 1)],
+            BAD_REQUEST,
+        )
+    )
+    out.append(
+        line_vec(
+            "a line of 4 MiB + 1 byte of hex",
+            [('{"op":"parse","hex":"', 1), ("00", MAX_LINE_BYTES // 2), ('"}', 1)],
+            BAD_REQUEST,
+        )
+    )
     out.append(line_vec("the line after an overlong line is read as usual", [(decode_line, 1)], decoded_ans))
     frames = 130_000
     expect = scan(ping * 3)
     assert expect == {"frames": [decoded_ping] * 3, "dropped_bytes": 0}
     many = {"frames": [{"$repeat": decoded_ping, "times": frames}], "dropped_bytes": 0}
-    out.append(line_vec(f"parse {frames:,} frames in one hex string", [('{"op":"parse","hex":"', 1), (hexs(ping), frames), ('"}', 1)], many))
-    out.append(line_vec(f"parse {frames:,} frames in {frames:,} chunks",
-                        [('{"op":"parse","chunks":["', 1), (hexs(ping) + '","', frames - 1), (hexs(ping) + '"]}', 1)], many))
+    out.append(
+        line_vec(
+            f"parse {frames:,} frames in one hex string",
+            [('{"op":"parse","hex":"', 1), (hexs(ping), frames), ('"}', 1)],
+            many,
+        )
+    )
+    out.append(
+        line_vec(
+            f"parse {frames:,} frames in {frames:,} chunks",
+            [('{"op":"parse","chunks":["', 1), (hexs(ping) + '","', frames - 1), (hexs(ping) + '"]}', 1)],
+            many,
+        )
+    )
     noisy = {"frames": [{"$repeat": decoded_ans, "times": 20_000}], "dropped_bytes": 3 * 20_000}
     assert scan((b"\xff\xfe\x00" + pos_ans) * 3) == {"frames": [decoded_ans] * 3, "dropped_bytes": 9}
-    out.append(line_vec("parse 20,000 frames each after a false header", [('{"op":"parse","hex":"', 1), ("fffe00" + hexs(pos_ans), 20_000), ('"}', 1)], noisy))
+    out.append(
+        line_vec(
+            "parse 20,000 frames each after a false header",
+            [('{"op":"parse","hex":"', 1), ("fffe00" + hexs(pos_ans), 20_000), ('"}', 1)],
+            noisy,
+        )
+    )
     return out
 
 

@@ -13,7 +13,7 @@ import re
 import subprocess
 import sys
 import tempfile
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,9 +29,17 @@ def instructions(exe: str, phase: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
         subprocess.run(
-            ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", f"--toggle-collect={phase}", exe,
-             str(CALLGRIND_FRAMES)],
-            check=True, capture_output=True, text=True,
+            [
+                "valgrind",
+                "--tool=callgrind",
+                f"--callgrind-out-file={out}",
+                f"--toggle-collect={phase}",
+                exe,
+                str(CALLGRIND_FRAMES),
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
         )
         summary = re.search(r"^(?:summary|totals): (\d+)", out.read_text(), re.MULTILINE)
         if summary is None:
@@ -45,7 +53,7 @@ def main(exe: str) -> int:
     cc = subprocess.run(["cc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     result = {
         "benchmark": "c/bench/bench.c via c/bench/run_bench.py (make -f c/Makefile.inc bench)",
-        "date": datetime.now(timezone.utc).strftime("%Y-%m-%d"),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
         "machine": f"{platform.machine()}, {platform.processor() or 'unknown cpu'}, one core",
         "compiler": f"{cc}, -O3 (CMake Release)",
         "native": native,

@@ -50,7 +50,9 @@ static void put_string_n(output *out, const char *text, size_t length) {
     put(out, "\"");
 }
 
-static void put_string(output *out, const char *text) { put_string_n(out, text, strlen(text)); }
+static void put_string(output *out, const char *text) {
+    put_string_n(out, text, strlen(text));
+}
 
 static int put_error(output *out, const char *kind, const char *field) {
     put(out, "{\"error\":");

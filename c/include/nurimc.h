@@ -41,7 +41,7 @@ typedef enum nurimc_status {
 /** Message kinds: commands are never answered; requests are answered with mode + 0x30. */
 typedef enum nurimc_kind { NURIMC_KIND_COMMAND, NURIMC_KIND_REQUEST, NURIMC_KIND_ANSWER } nurimc_kind;
 
-#define NURIMC_MSG_NONE ((nurimc_message_type)-1)
+#define NURIMC_MSG_NONE ((nurimc_message_type) - 1)
 /** `bad_field` value when the ID (not a field) was out of range. */
 #define NURIMC_FIELD_ID (-1)
 /** `bad_field` value when no field is to blame. */
@@ -113,15 +113,14 @@ uint8_t nurimc_checksum(const uint8_t *frame, size_t length);
  * on NURIMC_E_RANGE, *bad_field (if not NULL) is NURIMC_FIELD_ID or the field's index.
  * *length (if not NULL) receives the frame length.
  */
-nurimc_status nurimc_encode(const nurimc_message *msg, uint8_t *out, size_t capacity, size_t *length,
-                            int *bad_field);
+nurimc_status nurimc_encode(const nurimc_message *msg, uint8_t *out, size_t capacity, size_t *length, int *bad_field);
 
 /**
  * Encode from wide integers in wire order (as a dynamic-language binding or a JSON layer
  * would hold them), so values like -1 or 65536 get a proper NURIMC_E_RANGE.
  */
-nurimc_status nurimc_encode_values(nurimc_message_type type, long id, const long *values, uint8_t *out,
-                                   size_t capacity, size_t *length, int *bad_field);
+nurimc_status nurimc_encode_values(nurimc_message_type type, long id, const long *values, uint8_t *out, size_t capacity,
+                                   size_t *length, int *bad_field);
 
 /**
  * Decode exactly one whole frame. Errors in this order: header, truncated, trailing,
@@ -157,8 +156,8 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
 /** Called by nurimc_parser_feed for every frame, in order. */
 typedef void (*nurimc_frame_callback)(void *context, const nurimc_message *msg);
 /** Add `length` bytes; calls `callback` for each frame they complete. Returns the frame count. */
-size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length,
-                          nurimc_frame_callback callback, void *context);
+size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
+                          void *context);
 /**
  * End of stream (or the line went quiet): resolve held bytes; a partial frame is dropped
  * byte by byte so a real frame inside it is still found. Returns 1 and fills *out for each

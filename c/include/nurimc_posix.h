@@ -17,7 +17,7 @@ extern "C" {
 /* Each way; USB adapters hold bytes up to their latency timer (FTDI: 16 ms unless set to 1 ms:
  * set adapter_latency_us to NURIMC_HOST_USB_ADAPTER_LATENCY_US for an untuned one). */
 #define NURIMC_DEFAULT_ADAPTER_LATENCY_US NURIMC_HOST_ADAPTER_LATENCY_US
-#define NURIMC_DEFAULT_MARGIN_US NURIMC_HOST_MARGIN_US /* scheduling slack of a busy host */
+#define NURIMC_DEFAULT_MARGIN_US          NURIMC_HOST_MARGIN_US /* scheduling slack of a busy host */
 /* Assumed until you know the controllers' setting: the largest possible, 254 x 100 us. */
 #define NURIMC_MAX_RESPONSE_TIME_US NURIMC_HOST_MAX_RESPONSE_TIME_US
 /** busy_window_us / busy_windows_us value: not set (fall back to the next rule). */
@@ -48,13 +48,13 @@ typedef struct nurimc_bus {
     uint32_t ignored_frames; /**< frames read that were not the awaited answer (echoes, other traffic) */
     /* EEPROM busy windows: the window of ID i is busy_windows_us[i] if set, else busy_window_us
      * if set, else the busy window of products[i]'s profile (NURIMC_PROFILE_MC if not declared). */
-    uint32_t busy_window_us;                     /**< for every ID; default NURIMC_BUSY_WINDOW_UNSET */
+    uint32_t busy_window_us;                       /**< for every ID; default NURIMC_BUSY_WINDOW_UNSET */
     uint32_t busy_windows_us[NURIMC_BROADCAST_ID]; /**< per ID 0-254; default NURIMC_BUSY_WINDOW_UNSET */
-    int8_t products[NURIMC_BROADCAST_ID];        /**< nurimc_profile per ID, -1 = not declared (default) */
-    uint64_t busy_until_us[NURIMC_BROADCAST_ID]; /**< monotonic time each ID is free again (0: free) */
-    uint64_t busy_all_until_us;                  /**< after a broadcast write: every ID */
-    uint32_t busy_waits;   /**< frames held back until a busy window ended */
-    int timeout_was_busy;  /**< set with NURIMC_E_TIMEOUT when the ID was busy writing EEPROM (rule 6) */
+    int8_t products[NURIMC_BROADCAST_ID];          /**< nurimc_profile per ID, -1 = not declared (default) */
+    uint64_t busy_until_us[NURIMC_BROADCAST_ID];   /**< monotonic time each ID is free again (0: free) */
+    uint64_t busy_all_until_us;                    /**< after a broadcast write: every ID */
+    uint32_t busy_waits;                           /**< frames held back until a busy window ended */
+    int timeout_was_busy; /**< set with NURIMC_E_TIMEOUT when the ID was busy writing EEPROM (rule 6) */
 } nurimc_bus;
 
 /** Open the bus on `path` at `baud` with the default timing. */
@@ -96,8 +96,7 @@ nurimc_status nurimc_bus_send(nurimc_bus *bus, const nurimc_message *msg, int *b
 nurimc_status nurimc_bus_request(nurimc_bus *bus, const nurimc_message *request, nurimc_message *answer);
 
 /** Ask controller `id` for answer type of `request_type` (no fields), e.g. NURIMC_MSG_REQUEST_PING. */
-nurimc_status nurimc_bus_query(nurimc_bus *bus, nurimc_message_type request_type, uint8_t id,
-                               nurimc_message *answer);
+nurimc_status nurimc_bus_query(nurimc_bus *bus, nurimc_message_type request_type, uint8_t id, nurimc_message *answer);
 
 #ifdef __cplusplus
 }

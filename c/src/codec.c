@@ -44,8 +44,8 @@ int nurimc_baud_index(uint32_t baud) {
 }
 
 static const char *const status_names[] = {
-    "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size",
-    "unknown_message", "range", "buffer", "argument", "io", "timeout", "baud",
+    "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size", "unknown_message",
+    "range", "buffer", "argument",  "io",       "timeout",  "baud",
 };
 
 static const char *const status_texts[] = {
@@ -130,8 +130,7 @@ static void set_bad_field(int *bad_field, int value) {
     if (bad_field != NULL) *bad_field = value;
 }
 
-nurimc_status nurimc_encode(const nurimc_message *msg, uint8_t *out, size_t capacity, size_t *length,
-                            int *bad_field) {
+nurimc_status nurimc_encode(const nurimc_message *msg, uint8_t *out, size_t capacity, size_t *length, int *bad_field) {
     const nurimc_message_spec *spec;
     size_t at = DATA_OFFSET;
     int i;
@@ -166,8 +165,8 @@ nurimc_status nurimc_encode(const nurimc_message *msg, uint8_t *out, size_t capa
     return NURIMC_OK;
 }
 
-nurimc_status nurimc_encode_values(nurimc_message_type type, long id, const long *values, uint8_t *out,
-                                   size_t capacity, size_t *length, int *bad_field) {
+nurimc_status nurimc_encode_values(nurimc_message_type type, long id, const long *values, uint8_t *out, size_t capacity,
+                                   size_t *length, int *bad_field) {
     const nurimc_message_spec *spec = nurimc_spec(type);
     nurimc_message msg;
     int i;

@@ -68,8 +68,7 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
             p->stats.dropped_bytes++;
             pos++;
             continue;
-        case WAIT:
-            break;
+        case WAIT: break;
         }
         if (!final) break; /* an incomplete candidate: wait for more bytes */
         p->stats.dropped_bytes++;
@@ -95,8 +94,8 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
     return scan(parser, 0, out);
 }
 
-size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length,
-                          nurimc_frame_callback callback, void *context) {
+size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
+                          void *context) {
     size_t i = 0, count = 0;
     nurimc_message msg;
     if (parser == NULL || (data == NULL && length > 0)) return 0;

@@ -6,22 +6,22 @@
 
 static int check_failures;
 
-#define CHECK(cond)                                                              \
-    do {                                                                         \
-        if (!(cond)) {                                                           \
-            check_failures++;                                                    \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-        }                                                                        \
+#define CHECK(cond)                                                                                                    \
+    do {                                                                                                               \
+        if (!(cond)) {                                                                                                 \
+            check_failures++;                                                                                          \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);                                   \
+        }                                                                                                              \
     } while (0)
 
-#define CHECK_EQ(a, b)                                                                              \
-    do {                                                                                            \
-        long check_a_ = (long)(a), check_b_ = (long)(b);                                            \
-        if (check_a_ != check_b_) {                                                                 \
-            check_failures++;                                                                       \
-            fprintf(stderr, "%s:%d: CHECK_EQ failed: %s == %ld, %s == %ld\n", __FILE__, __LINE__, #a, \
-                    check_a_, #b, check_b_);                                                        \
-        }                                                                                           \
+#define CHECK_EQ(a, b)                                                                                                 \
+    do {                                                                                                               \
+        long check_a_ = (long)(a), check_b_ = (long)(b);                                                               \
+        if (check_a_ != check_b_) {                                                                                    \
+            check_failures++;                                                                                          \
+            fprintf(stderr, "%s:%d: CHECK_EQ failed: %s == %ld, %s == %ld\n", __FILE__, __LINE__, #a, check_a_, #b,    \
+                    check_b_);                                                                                         \
+        }                                                                                                              \
     } while (0)
 
 static int check_report(const char *name) {

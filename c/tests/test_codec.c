@@ -94,12 +94,15 @@ static void test_range_errors(void) {
     CHECK_EQ(bad, 1);
     /* Wide values: negative and too large are range errors, not wrapped. */
     values[1] = -1;
-    CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 1, values, frame, sizeof frame, NULL, &bad), NURIMC_E_RANGE);
+    CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 1, values, frame, sizeof frame, NULL, &bad),
+             NURIMC_E_RANGE);
     CHECK_EQ(bad, 1);
     values[1] = 65536 + 100;
-    CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 1, values, frame, sizeof frame, NULL, &bad), NURIMC_E_RANGE);
+    CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 1, values, frame, sizeof frame, NULL, &bad),
+             NURIMC_E_RANGE);
     values[1] = 100;
-    CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 256, values, frame, sizeof frame, NULL, &bad), NURIMC_E_RANGE);
+    CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 256, values, frame, sizeof frame, NULL, &bad),
+             NURIMC_E_RANGE);
     CHECK_EQ(bad, NURIMC_FIELD_ID);
     CHECK_EQ(nurimc_encode_values(NURIMC_MSG_POSITION_SPEED, 1, values, frame, sizeof frame, NULL, &bad), NURIMC_OK);
     /* Too small a buffer, an unknown type. */
@@ -131,8 +134,8 @@ static void test_decode_errors_in_order(void) {
     expect_decode("fffe0007760100465003e800", NURIMC_E_TRAILING);
     expect_decode("fffe0007770100465003e8", NURIMC_E_CHECKSUM);
     expect_decode("fffe0002fd00", NURIMC_E_UNKNOWN_MODE);
-    expect_decode("fffe0003ec0f01", NURIMC_E_SIZE);            /* erratum 2 as printed */
-    expect_decode("fffe0003ed0e01", NURIMC_OK);                /* as corrected */
+    expect_decode("fffe0003ec0f01", NURIMC_E_SIZE);               /* erratum 2 as printed */
+    expect_decode("fffe0003ed0e01", NURIMC_OK);                   /* as corrected */
     expect_decode("fffe0007760100465003e8ff", NURIMC_E_TRAILING); /* trailing before checksum */
     /* Out-of-range values decode as they are: direction 2. */
     expect_decode("fffe0007740102465003e8", NURIMC_OK);

@@ -170,7 +170,7 @@ static void test_timeout_and_misuse(void) {
     CHECK_EQ(nurimc_bus_query(&bus, NURIMC_MSG_REQUEST_PING, 1, &answer), NURIMC_E_TIMEOUT);
     elapsed = now_us() - start;
     CHECK(elapsed >= 2u * nurimc_bus_answer_timeout_us(&bus, NURIMC_MSG_REQUEST_PING));
-    CHECK(elapsed < 10000000u); /* it gave up; it did not hang */
+    CHECK(elapsed < 10000000u);                    /* it gave up; it did not hang */
     CHECK_EQ(read(master, sent, sizeof sent), 12); /* the request went out, and once more */
     CHECK_EQ(sent[11], 0xA0);
     /* a command is sent, never awaited; request() refuses it; requests are never broadcast */
@@ -192,8 +192,7 @@ static void drain(int master) {
     struct pollfd pfd;
     pfd.fd = master;
     pfd.events = POLLIN;
-    while (poll(&pfd, 1, 0) > 0 && read(master, junk, sizeof junk) > 0) {
-    }
+    while (poll(&pfd, 1, 0) > 0 && read(master, junk, sizeof junk) > 0) {}
 }
 
 static nurimc_message gains(uint8_t id) {
@@ -228,7 +227,7 @@ static void test_busy_windows_configurable(void) {
     CHECK_EQ(nurimc_bus_set_product(&bus, 1, NURIMC_PROFILE_COUNT), NURIMC_E_ARGUMENT);
     bus.busy_window_us = 120000;
     bus.busy_windows_us[4] = 80000;
-    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 4), 80000); /* per ID first */
+    CHECK_EQ(nurimc_bus_busy_window_us(&bus, 4), 80000);  /* per ID first */
     CHECK_EQ(nurimc_bus_busy_window_us(&bus, 5), 120000); /* then the bus */
     bus.busy_windows_us[9] = 200000;
     CHECK_EQ(nurimc_bus_busy_window_us(&bus, NURIMC_BROADCAST_ID), 200000); /* broadcast: the largest */

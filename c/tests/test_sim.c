@@ -18,7 +18,8 @@ static uint64_t now_ms(void) {
 
 static nurimc_status query(nurimc_bus *bus, nurimc_message_type type, uint8_t id, nurimc_message *answer) {
     nurimc_status status = nurimc_bus_query(bus, type, id, answer);
-    if (status != NURIMC_OK) fprintf(stderr, "%s to ID %u: %s\n", nurimc_spec(type)->name, id, nurimc_status_text(status));
+    if (status != NURIMC_OK)
+        fprintf(stderr, "%s to ID %u: %s\n", nurimc_spec(type)->name, id, nurimc_status_text(status));
     return status;
 }
 

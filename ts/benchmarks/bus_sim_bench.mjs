@@ -4,7 +4,7 @@
 // Writes benchmarks/results/bus-sim-ts.json. Not a test: figures vary with the machine.
 import { spawn } from "node:child_process";
 import { writeFileSync } from "node:fs";
-import { tmpdir, cpus } from "node:os";
+import { cpus, tmpdir } from "node:os";
 import { join } from "node:path";
 import { fileURLToPath } from "node:url";
 import { SerialPort } from "serialport";
@@ -16,10 +16,17 @@ const LINK = join(tmpdir(), `nurimc-ts-bench-${process.pid}`);
 const RATE = 1_000_000;
 const N = 400;
 
-const sim = spawn(join(ROOT, ".venv/bin/python"), ["-m", "nurimc.sim", "--link", LINK, "--ids", "0,", "--baud", String(RATE)], { stdio: ["ignore", "pipe", "inherit"] });
+const sim = spawn(
+  join(ROOT, ".venv/bin/python"),
+  ["-m", "nurimc.sim", "--link", LINK, "--ids", "0,", "--baud", String(RATE)],
+  { stdio: ["ignore", "pipe", "inherit"] },
+);
 await new Promise((resolve, reject) => {
   let out = "";
-  sim.stdout.on("data", (c) => ((out += c), /^ready: /m.test(out) && resolve()));
+  sim.stdout.on("data", (c) => {
+    out += c;
+    if (/^ready: /m.test(out)) resolve();
+  });
   sim.on("exit", () => reject(new Error("simulator exited")));
 });
 
@@ -36,7 +43,12 @@ async function bare() {
     const t0 = process.hrtime.bigint();
     let got = 0;
     await new Promise((resolve) => {
-      const onData = (c) => ((got += c.length), got >= 12 && (port.off("data", onData), resolve()));
+      const onData = (c) => {
+        got += c.length;
+        if (got < 12) return;
+        port.off("data", onData);
+        resolve();
+      };
       port.on("data", onData);
       port.write(Buffer.from(frame));
     });
@@ -69,5 +81,11 @@ const results = {
   library_retries: lib.retries,
 };
 console.table(results);
-const out = { results, baud: RATE, node: process.version, cpu: cpus()[0]?.model ?? "", date: new Date().toISOString().slice(0, 10) };
+const out = {
+  results,
+  baud: RATE,
+  node: process.version,
+  cpu: cpus()[0]?.model ?? "",
+  date: new Date().toISOString().slice(0, 10),
+};
 writeFileSync(fileURLToPath(new URL("results/bus-sim-ts.json", import.meta.url)), JSON.stringify(out, null, 2) + "\n");

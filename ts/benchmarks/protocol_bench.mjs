@@ -6,11 +6,14 @@
 import { writeFileSync } from "node:fs";
 import { arch, cpus } from "node:os";
 import { fileURLToPath } from "node:url";
-import { decode, encode, make, MESSAGE_NAMES, SPECS, StreamParser } from "../dist/index.js";
+import { decode, encode, MESSAGE_NAMES, make, SPECS, StreamParser } from "../dist/index.js";
 
 const COUNT = 20_000;
 let seed = 1;
-const random = () => ((seed = (seed * 1103515245 + 12345) & 0x7fffffff) / 0x80000000);
+const random = () => {
+  seed = (seed * 1103515245 + 12345) & 0x7fffffff;
+  return seed / 0x80000000;
+};
 const randint = (min, max) => min + Math.floor(random() * (max - min + 1));
 
 const messages = Array.from({ length: COUNT }, () => {
@@ -47,5 +50,12 @@ const results = {
   wire_frames_per_s_at_1Mbps: round(1e6 / 10 / (stream.length / COUNT)),
 };
 console.table(results);
-const out = { results, frames: COUNT, node: process.version, machine: arch(), cpu: cpus()[0]?.model ?? "", date: new Date().toISOString().slice(0, 10) };
+const out = {
+  results,
+  frames: COUNT,
+  node: process.version,
+  machine: arch(),
+  cpu: cpus()[0]?.model ?? "",
+  date: new Date().toISOString().slice(0, 10),
+};
 writeFileSync(fileURLToPath(new URL("results/protocol-ts.json", import.meta.url)), JSON.stringify(out, null, 2) + "\n");

@@ -1,7 +1,8 @@
 // The browser bundle for the console's direct mode: one ESM file, no Node modules.
 // Usage: node scripts/bundle.mjs [outfile]   (default dist/nurimc.browser.js)
-import { build } from "esbuild";
+
 import { fileURLToPath } from "node:url";
+import { build } from "esbuild";
 
 export async function bundle(outfile) {
   await build({

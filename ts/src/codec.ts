@@ -1,6 +1,16 @@
 /** Build, encode and decode whole frames (sans-I/O: bytes in, typed messages out). */
 import { DecodeError, EncodeError, FieldRangeError } from "./errors.js";
-import { buildFrame, CHECKSUM_OFFSET, DATA_OFFSET, expectedChecksum, HEADER_0, HEADER_1, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET } from "./frame.js";
+import {
+  buildFrame,
+  CHECKSUM_OFFSET,
+  DATA_OFFSET,
+  expectedChecksum,
+  HEADER_0,
+  HEADER_1,
+  ID_OFFSET,
+  MODE_OFFSET,
+  SIZE_OFFSET,
+} from "./frame.js";
 import type { AnswerOf, MessageFieldMap, MessageName } from "./generated/messages.js";
 import { MESSAGE_NAMES } from "./generated/messages.js";
 import { BROADCAST_ID, MIN_FRAME_LENGTH, SPECS } from "./generated/tables.js";
@@ -18,13 +28,17 @@ export type AnswerMessageOf<N extends keyof AnswerOf> = MessageOf<AnswerOf[N]>;
 export const BY_MODE: ReadonlyMap<number, MessageSpec> = new Map(MESSAGE_NAMES.map((n) => [SPECS[n].mode, SPECS[n]]));
 
 export function isMessageName(name: unknown): name is MessageName {
-  return typeof name === "string" && Object.prototype.hasOwnProperty.call(SPECS, name);
+  return typeof name === "string" && Object.hasOwn(SPECS, name);
 }
 
 /** The spec of a message by its canonical name, or an `unknown_message` error listing the names. */
 export function messageSpec(name: string): MessageSpec {
   if (!isMessageName(name)) {
-    throw new EncodeError("unknown_message", `unknown message ${JSON.stringify(name)}; known messages: ${MESSAGE_NAMES.join(", ")}`, name);
+    throw new EncodeError(
+      "unknown_message",
+      `unknown message ${JSON.stringify(name)}; known messages: ${MESSAGE_NAMES.join(", ")}`,
+      name,
+    );
   }
   return SPECS[name];
 }
@@ -32,9 +46,15 @@ export function messageSpec(name: string): MessageSpec {
 const isInteger = (value: unknown): value is number => typeof value === "number" && Number.isInteger(value);
 
 function checkId(spec: MessageSpec, id: unknown): number {
-  if (!isInteger(id)) throw new EncodeError("type", `${spec.name}.id = ${JSON.stringify(id)} is not an integer`, spec.name, "id");
+  if (!isInteger(id))
+    throw new EncodeError("type", `${spec.name}.id = ${JSON.stringify(id)} is not an integer`, spec.name, "id");
   if (id < 0 || id > spec.maxId) {
-    throw new FieldRangeError(spec.name, "id", id, spec.maxId === BROADCAST_ID ? "0..255 (255 = broadcast)" : "0..254 (no broadcast)");
+    throw new FieldRangeError(
+      spec.name,
+      "id",
+      id,
+      spec.maxId === BROADCAST_ID ? "0..255 (255 = broadcast)" : "0..254 (no broadcast)",
+    );
   }
   return id;
 }
@@ -48,12 +68,13 @@ function checkValue(spec: MessageSpec, field: FieldSpec, value: unknown): number
       field.name,
     );
   }
-  if (value < field.min || value > field.max) throw new FieldRangeError(spec.name, field.name, value, describeRange(field));
+  if (value < field.min || value > field.max)
+    throw new FieldRangeError(spec.name, field.name, value, describeRange(field));
   return value;
 }
 
 /** Field values of a message by name (a message is a plain object). */
-const valueOf = (message: Message, field: string): unknown => (message as unknown as Record<string, unknown>)[field];
+const fieldValue = (message: Message, field: string): unknown => (message as unknown as Record<string, unknown>)[field];
 
 /**
  * Build a message by its canonical name, fully checked: missing and unknown fields,
@@ -67,8 +88,13 @@ export function make(name: string, id: unknown, fields: Readonly<Record<string, 
   const wanted = spec.fields.map((f) => f.name);
   const listing = `(fields: ${wanted.join(", ") || "none"})`;
   for (const field of wanted) {
-    if (!Object.prototype.hasOwnProperty.call(fields, field)) {
-      throw new EncodeError("missing_field", `${name} needs the field ${JSON.stringify(field)} ${listing}`, name, field);
+    if (!Object.hasOwn(fields, field)) {
+      throw new EncodeError(
+        "missing_field",
+        `${name} needs the field ${JSON.stringify(field)} ${listing}`,
+        name,
+        field,
+      );
     }
   }
   for (const field of Object.keys(fields)) {
@@ -88,7 +114,7 @@ export function encode(message: Message): Uint8Array {
   const data = new Uint8Array(spec.size - 2);
   let at = 0;
   for (const field of spec.fields) {
-    const value = checkValue(spec, field, valueOf(message, field.name));
+    const value = checkValue(spec, field, fieldValue(message, field.name));
     if (field.width === 2) data[at++] = value >> 8;
     data[at++] = value & 0xff;
   }
@@ -109,19 +135,28 @@ export function decode(frame: Uint8Array): Message {
   }
   const size = frame[SIZE_OFFSET];
   if (size === undefined || frame.length < MIN_FRAME_LENGTH || frame.length < size + 4) {
-    throw new DecodeError("truncated", `frame is truncated (${frame.length} bytes${size === undefined ? "" : `, size byte says ${size + 4}`})`);
+    throw new DecodeError(
+      "truncated",
+      `frame is truncated (${frame.length} bytes${size === undefined ? "" : `, size byte says ${size + 4}`})`,
+    );
   }
   if (frame.length > size + 4) {
     throw new DecodeError("trailing", `${frame.length - size - 4} bytes after the frame (size byte says ${size})`);
   }
   const expected = expectedChecksum(frame, 0, frame.length);
   if (frame[CHECKSUM_OFFSET] !== expected) {
-    throw new DecodeError("checksum", `checksum is ${hexByte(frame[CHECKSUM_OFFSET])}, the bytes give ${hexByte(expected)}`);
+    throw new DecodeError(
+      "checksum",
+      `checksum is ${hexByte(frame[CHECKSUM_OFFSET])}, the bytes give ${hexByte(expected)}`,
+    );
   }
   const spec = BY_MODE.get(frame[MODE_OFFSET] ?? -1);
   if (spec === undefined) throw new DecodeError("unknown_mode", `unknown mode ${hexByte(frame[MODE_OFFSET])}`);
   if (size !== spec.size) {
-    throw new DecodeError("size", `${spec.name} (mode ${hexByte(spec.mode)}) has size ${spec.size}, frame says ${size}`);
+    throw new DecodeError(
+      "size",
+      `${spec.name} (mode ${hexByte(spec.mode)}) has size ${spec.size}, frame says ${size}`,
+    );
   }
   return decodeValid(spec, frame, 0);
 }
@@ -140,7 +175,7 @@ export function decodeValid(spec: MessageSpec, buf: Uint8Array, start: number): 
 /** Field values as raw wire integers, in wire order. */
 export function fieldsOf(message: Message): Record<string, number> {
   const out: Record<string, number> = {};
-  for (const field of messageSpec(message.name).fields) out[field.name] = valueOf(message, field.name) as number;
+  for (const field of messageSpec(message.name).fields) out[field.name] = fieldValue(message, field.name) as number;
   return out;
 }
 
@@ -153,7 +188,7 @@ export function toRecord(message: Message): Record<string, number | string> {
 export function physical(message: Message): Record<string, number | string> {
   const out: Record<string, number | string> = {};
   for (const field of messageSpec(message.name).fields) {
-    const raw = valueOf(message, field.name) as number;
+    const raw = fieldValue(message, field.name) as number;
     const named = field.values[raw];
     out[field.name] = named ?? (field.unit !== "" ? fromWire(raw, field.scale) : raw);
   }

@@ -4,7 +4,7 @@ import { pathToFileURL } from "node:url";
 import { decode, encode, make, toRecord } from "./codec.js";
 import { DecodeError, EncodeError } from "./errors.js";
 import { fromHex } from "./frame.js";
-import { BadRequest, MAX_LINE_BYTES, readRequest, type JsonValue } from "./jsonline.js";
+import { BadRequest, type JsonValue, MAX_LINE_BYTES, readRequest } from "./jsonline.js";
 import { StreamParser } from "./parser.js";
 
 type Reply = Record<string, unknown>;
@@ -21,7 +21,7 @@ function bytes(text: unknown): Uint8Array {
 }
 
 const own = (object: Record<string, unknown>, key: string): unknown =>
-  Object.prototype.hasOwnProperty.call(object, key) ? object[key] : undefined;
+  Object.hasOwn(object, key) ? object[key] : undefined;
 
 function parse(request: Record<string, unknown>): Reply {
   const chunks = own(request, "chunks");
@@ -47,11 +47,13 @@ export function answer(request: unknown): Reply {
       case "decode":
         return toRecord(decode(bytes(own(req, "hex"))));
       case "encode": {
-        for (const key of ["message", "id"]) if (own(req, key) === undefined) return { error: "missing_field", field: key };
+        for (const key of ["message", "id"])
+          if (own(req, key) === undefined) return { error: "missing_field", field: key };
         const message = own(req, "message");
         if (typeof message !== "string") return { error: "unknown_message" };
         const fields = Object.create(null) as Record<string, unknown>;
-        for (const key of Object.keys(req)) if (key !== "op" && key !== "id" && key !== "message") fields[key] = req[key];
+        for (const key of Object.keys(req))
+          if (key !== "op" && key !== "id" && key !== "message") fields[key] = req[key];
         return { hex: Buffer.from(encode(make(message, own(req, "id"), fields))).toString("hex") };
       }
       case "parse":
@@ -61,7 +63,8 @@ export function answer(request: unknown): Reply {
     }
   } catch (err) {
     if (err instanceof DecodeError) return { error: err.kind };
-    if (err instanceof EncodeError) return err.field === null ? { error: err.kind } : { error: err.kind, field: err.field };
+    if (err instanceof EncodeError)
+      return err.field === null ? { error: err.kind } : { error: err.kind, field: err.field };
     if (err instanceof BadHex) return { error: "bad_hex" };
     throw err;
   }

@@ -2,18 +2,19 @@
  * nurimc: Nurirobot MC / BLMC-H controllers on RS485 (MC-RS485 V1.0.1).
  * Environment-neutral (Node and browsers); the Node serial port is in "nurimc/node".
  */
-export * from "./codec.js";
-export * from "./errors.js";
-export { buildFrame, checksum, fromHex, toHex } from "./frame.js";
-export * from "./generated/messages.js";
-export * from "./generated/tables.js";
-export * from "./generated/host.js";
-export * from "./parser.js";
-export type * from "./schema.js";
-export * as units from "./units.js";
+
 export * from "./bus/client.js";
 export * from "./bus/errors.js";
 export * from "./bus/port.js";
 export * from "./bus/timing.js";
-export { WebSerialPort, type WebSerialDevice } from "./ports/webserial.js";
+export * from "./codec.js";
+export * from "./errors.js";
+export { buildFrame, checksum, fromHex, toHex } from "./frame.js";
+export * from "./generated/host.js";
+export * from "./generated/messages.js";
+export * from "./generated/tables.js";
 export * from "./motor.js";
+export * from "./parser.js";
+export { type WebSerialDevice, WebSerialPort } from "./ports/webserial.js";
+export type * from "./schema.js";
+export * as units from "./units.js";

@@ -142,12 +142,12 @@ class Reader {
       }
       out += this.text.slice(start, this.at);
       this.at++;
-      const escape = this.text[this.at++];
-      switch (escape) {
+      const escaped = this.text[this.at++];
+      switch (escaped) {
         case '"':
         case "\\":
         case "/":
-          out += escape;
+          out += escaped;
           break;
         case "b":
           out += "\b";

@@ -8,7 +8,7 @@
 import type { Bus } from "./bus/client.js";
 import { VerifyError } from "./bus/errors.js";
 import { make, messageSpec } from "./codec.js";
-import { toWire, fromWire } from "./units.js";
+import { fromWire, toWire } from "./units.js";
 
 export type Direction = "ccw" | "cw";
 
@@ -77,21 +77,33 @@ export class Motor {
   /** Move to `degrees` (0..655.33, with `direction`) at `rpm`. */
   moveTo(degrees: number, rpm: number, direction: Direction = "ccw"): Promise<void> {
     return this.command(() =>
-      make("position_speed", this.id, { direction: dir(direction), position: toWire(degrees, 0.01), speed: toWire(rpm, 0.1) }),
+      make("position_speed", this.id, {
+        direction: dir(direction),
+        position: toWire(degrees, 0.01),
+        speed: toWire(rpm, 0.1),
+      }),
     );
   }
 
   /** Move to `degrees`, arriving in `seconds` (smooth acceleration). */
   moveIn(degrees: number, seconds: number, direction: Direction = "ccw"): Promise<void> {
     return this.command(() =>
-      make("accel_position", this.id, { direction: dir(direction), position: toWire(degrees, 0.01), arrival_time: toWire(seconds, 0.1) }),
+      make("accel_position", this.id, {
+        direction: dir(direction),
+        position: toWire(degrees, 0.01),
+        arrival_time: toWire(seconds, 0.1),
+      }),
     );
   }
 
   /** Run at `rpm`, reaching it in `rampSeconds`. */
   run(rpm: number, direction: Direction = "ccw", rampSeconds = 0.1): Promise<void> {
     return this.command(() =>
-      make("accel_speed", this.id, { direction: dir(direction), speed: toWire(rpm, 0.1), arrival_time: toWire(rampSeconds, 0.1) }),
+      make("accel_speed", this.id, {
+        direction: dir(direction),
+        speed: toWire(rpm, 0.1),
+        arrival_time: toWire(rampSeconds, 0.1),
+      }),
     );
   }
 
@@ -144,7 +156,9 @@ export class Motor {
   }
 
   async readGains(loop: "position" | "speed"): Promise<Gains> {
-    const answer = await this.bus.request(make(loop === "position" ? "request_position_gains" : "request_speed_gains", this.id, {}));
+    const answer = await this.bus.request(
+      make(loop === "position" ? "request_position_gains" : "request_speed_gains", this.id, {}),
+    );
     return { kp: answer.kp, ki: answer.ki, kd: answer.kd, ratedCurrent: fromWire(answer.rated_current, 0.1) };
   }
 
@@ -168,7 +182,8 @@ export class Motor {
 }
 
 const dir = (direction: Direction): number => {
-  if (direction !== "ccw" && direction !== "cw") throw new RangeError(`direction ${JSON.stringify(direction)}: use "ccw" or "cw"`);
+  if (direction !== "ccw" && direction !== "cw")
+    throw new RangeError(`direction ${JSON.stringify(direction)}: use "ccw" or "cw"`);
   return direction === "cw" ? 1 : 0;
 };
 
@@ -179,10 +194,18 @@ function fieldOf(spec: ReturnType<typeof messageSpec>): ReturnType<typeof messag
 }
 
 /** A value name ("off") or a physical number -> the wire integer. */
-function wireValue(values: Readonly<Record<number, string>>, scale: number, value: number | string, setting: string): number {
+function wireValue(
+  values: Readonly<Record<number, string>>,
+  scale: number,
+  value: number | string,
+  setting: string,
+): number {
   if (typeof value === "string") {
     const entry = Object.entries(values).find(([, n]) => n === value);
-    if (entry === undefined) throw new RangeError(`${setting} = ${JSON.stringify(value)}: use one of ${Object.values(values).join(", ") || "a number"}`);
+    if (entry === undefined)
+      throw new RangeError(
+        `${setting} = ${JSON.stringify(value)}: use one of ${Object.values(values).join(", ") || "a number"}`,
+      );
     return Number(entry[0]);
   }
   return toWire(value, scale);

@@ -22,7 +22,13 @@ export interface ParserStats {
   badSize: number;
 }
 
-export const emptyStats = (): ParserStats => ({ frames: 0, droppedBytes: 0, badChecksum: 0, unknownMode: 0, badSize: 0 });
+export const emptyStats = (): ParserStats => ({
+  frames: 0,
+  droppedBytes: 0,
+  badChecksum: 0,
+  unknownMode: 0,
+  badSize: 0,
+});
 
 /** Feed bytes, get messages. Never throws on garbage; memory stays bounded. */
 export class StreamParser {

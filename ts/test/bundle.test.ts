@@ -16,7 +16,9 @@ describe("browser bundle", () => {
     expect(text).not.toMatch(/from\s+["'](node:|serialport)/);
     expect(text).not.toMatch(/require\(/);
     const lib = (await import(pathToFileURL(file).href)) as typeof import("../src/index.js");
-    expect(lib.toHex(lib.encode(lib.make("position_speed", 0, { direction: 0, position: 18000, speed: 1000 })))).toBe("fffe0007760100465003e8");
+    expect(lib.toHex(lib.encode(lib.make("position_speed", 0, { direction: 0, position: 18000, speed: 1000 })))).toBe(
+      "fffe0007760100465003e8",
+    );
     expect(typeof lib.WebSerialPort.open).toBe("function");
     expect(typeof lib.Bus).toBe("function");
   });

@@ -86,7 +86,10 @@ describe("busy window", () => {
     const { port, times } = recording();
     const bus = new Bus(port, { timing: fast, busyWindowsMs: { 1: 5, 2: 50 } });
     await bus.send(gains(1), gains(2));
-    await bus.send(make("position_speed", 1, { direction: 0, position: 0, speed: 10 }), make("position_speed", 2, { direction: 0, position: 0, speed: 10 }));
+    await bus.send(
+      make("position_speed", 1, { direction: 0, position: 0, speed: 10 }),
+      make("position_speed", 2, { direction: 0, position: 0, speed: 10 }),
+    );
     expect(gap(times, 0, 1)).toBeGreaterThanOrEqual(50);
   });
 

@@ -1,14 +1,21 @@
 import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
-import { BusClosedError, BusError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "../src/bus/errors.js";
+import {
+  BusClosedError,
+  BusError,
+  CorruptedAnswerError,
+  NoAnswerError,
+  UnexpectedAnswerError,
+} from "../src/bus/errors.js";
 import { receive } from "../src/bus/port.js";
 import { answerDeadlineMs, wireTimeMs } from "../src/bus/timing.js";
-import { decode, encode, make, type Message } from "../src/codec.js";
+import { decode, encode, type Message, make } from "../src/codec.js";
 import { FieldRangeError } from "../src/errors.js";
 import { toHex } from "../src/frame.js";
 import { concat, FakePort } from "./fake-port.js";
 
-const feedback = (id: number, position = 18000): Message => make("position_feedback", id, { direction: 1, position, speed: 25, current: 3 });
+const feedback = (id: number, position = 18000): Message =>
+  make("position_feedback", id, { direction: 1, position, speed: 25, current: 3 });
 
 /** A controller at each of `ids` that answers position requests and pings. */
 function answering(ids: number[]) {
@@ -63,7 +70,9 @@ describe("bus client", () => {
     const bus = new Bus(port, { ...fast, retries: 1 });
     const failure = bus.request(make("request_ping", 7, {}));
     await expect(failure).rejects.toBeInstanceOf(NoAnswerError);
-    await expect(failure).rejects.toThrow(/no answer to request_ping to ID 7 after 2 attempt\(s\).*9600 bps.*wrong|not at 9600 bps/);
+    await expect(failure).rejects.toThrow(
+      /no answer to request_ping to ID 7 after 2 attempt\(s\).*9600 bps.*wrong|not at 9600 bps/,
+    );
     expect(port.writes).toHaveLength(2);
     expect(bus.stats.noAnswer).toBe(1);
   });
@@ -89,7 +98,10 @@ describe("bus client", () => {
     const bus = new Bus(port, { timing: { latencyMs: 600_000 } }); // waiting for an answer would time the test out
     await bus.send(make("set_position_mode", 2, { position_mode: 1 })); // an EEPROM write: ID 2 is busy (busy.test.ts), ID 1 is not
     await bus.send(make("position_speed", 1, { direction: 0, position: 9000, speed: 100 }));
-    expect(port.writes.map(toHex)).toEqual([toHex(encode(make("set_position_mode", 2, { position_mode: 1 }))), "fffe010747010023280064"]);
+    expect(port.writes.map(toHex)).toEqual([
+      toHex(encode(make("set_position_mode", 2, { position_mode: 1 }))),
+      "fffe010747010023280064",
+    ]);
     expect(bus.stats.commands).toBe(2);
   });
 
@@ -104,7 +116,9 @@ describe("bus client", () => {
   it("refuses to send a request as a command, a command as a request, and broadcast requests", async () => {
     const bus = new Bus(new FakePort(), fast);
     await expect(bus.send(make("request_ping", 1, {}))).rejects.toThrow(/not a command; use request\(\)/);
-    await expect(bus.request(make("set_control", 1, { control: 1 }))).rejects.toThrow(/commands are sent with send\(\)/);
+    await expect(bus.request(make("set_control", 1, { control: 1 }))).rejects.toThrow(
+      /commands are sent with send\(\)/,
+    );
     await expect(bus.request({ name: "request_ping", id: 255 })).rejects.toBeInstanceOf(FieldRangeError);
     await expect(bus.setBaudRate(12345)).rejects.toThrow(/use one of 110, 300/);
   });
@@ -116,7 +130,10 @@ describe("bus client", () => {
       return answering([1, 2])(w);
     });
     const bus = new Bus(port, fast);
-    const [a, b] = await Promise.all([bus.request(make("request_ping", 1, {})), bus.request(make("request_ping", 2, {})).then((m) => (events.push("answer 2"), m))]);
+    const [a, b] = await Promise.all([
+      bus.request(make("request_ping", 1, {})),
+      bus.request(make("request_ping", 2, {})).then((m) => (events.push("answer 2"), m)),
+    ]);
     expect([a.id, b.id]).toEqual([1, 2]);
     expect(events).toEqual(["write 1", "write 2", "answer 2"]);
   });
@@ -157,7 +174,10 @@ describe("bus client", () => {
 
   it("reports every frame sent and received to the traffic listener", async () => {
     const seen: string[] = [];
-    const bus = new Bus(new FakePort(answering([5])), { ...fast, onTraffic: (e) => seen.push(`${e.direction} ${e.message.name}`) });
+    const bus = new Bus(new FakePort(answering([5])), {
+      ...fast,
+      onTraffic: (e) => seen.push(`${e.direction} ${e.message.name}`),
+    });
     await bus.request(make("request_ping", 5, {}));
     expect(seen).toEqual(["tx request_ping", "rx ping"]);
   });
@@ -185,17 +205,24 @@ describe("bus client on arbitrary bus bytes", () => {
     const fc = (await import("fast-check")).default;
     const answerFrame = encode(make("ping", 6, {}));
     await fc.assert(
-      fc.asyncProperty(fc.array(fc.uint8Array({ maxLength: 20 }), { maxLength: 4 }), fc.boolean(), async (junk, withAnswer) => {
-        const port = new FakePort(() => (withAnswer ? [...junk, answerFrame] : junk));
-        const bus = new Bus(port, { timing: { latencyMs: withAnswer ? 100 : 1, assumedResponseTimeUs: 100 }, retries: 0 }); // generous where an answer is due
-        try {
-          const answer = await bus.request(make("request_ping", 6, {}));
-          expect(answer).toEqual(make("ping", 6, {}));
-        } catch (err) {
-          expect(err).toBeInstanceOf(BusError);
-          expect(withAnswer).toBe(false); // a valid answer behind any junk is always found
-        }
-      }),
+      fc.asyncProperty(
+        fc.array(fc.uint8Array({ maxLength: 20 }), { maxLength: 4 }),
+        fc.boolean(),
+        async (junk, withAnswer) => {
+          const port = new FakePort(() => (withAnswer ? [...junk, answerFrame] : junk));
+          const bus = new Bus(port, {
+            timing: { latencyMs: withAnswer ? 100 : 1, assumedResponseTimeUs: 100 },
+            retries: 0,
+          }); // generous where an answer is due
+          try {
+            const answer = await bus.request(make("request_ping", 6, {}));
+            expect(answer).toEqual(make("ping", 6, {}));
+          } catch (err) {
+            expect(err).toBeInstanceOf(BusError);
+            expect(withAnswer).toBe(false); // a valid answer behind any junk is always found
+          }
+        },
+      ),
       { numRuns: 60 },
     );
   });

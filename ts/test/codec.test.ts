@@ -1,6 +1,6 @@
 import fc from "fast-check";
 import { describe, expect, it } from "vitest";
-import { decode, encode, make, messageSpec, physical, toRecord, type Message } from "../src/codec.js";
+import { decode, encode, type Message, make, messageSpec, physical, toRecord } from "../src/codec.js";
 import { DecodeError, EncodeError, FieldRangeError } from "../src/errors.js";
 import { fromHex, toHex } from "../src/frame.js";
 import { MESSAGE_NAMES } from "../src/generated/messages.js";
@@ -10,7 +10,9 @@ import { SPECS } from "../src/generated/tables.js";
 const arbitraryMessage = (name: (typeof MESSAGE_NAMES)[number]): fc.Arbitrary<Message> => {
   const spec = SPECS[name];
   const fields = Object.fromEntries(spec.fields.map((f) => [f.name, fc.integer({ min: f.min, max: f.max })]));
-  return fc.record({ id: fc.integer({ min: 0, max: spec.maxId }), fields: fc.record(fields) }).map(({ id, fields: f }) => make(name as string, id, f));
+  return fc
+    .record({ id: fc.integer({ min: 0, max: spec.maxId }), fields: fc.record(fields) })
+    .map(({ id, fields: f }) => make(name as string, id, f));
 };
 const anyMessage = fc.constantFrom(...MESSAGE_NAMES).chain(arbitraryMessage);
 
@@ -45,7 +47,9 @@ describe("encode and decode", () => {
   });
 
   it("refuses broadcast requests and out-of-range IDs", () => {
-    expect(() => make("request_ping", 255, {})).toThrow("request_ping.id = 255 is out of range; allowed: 0..254 (no broadcast)");
+    expect(() => make("request_ping", 255, {})).toThrow(
+      "request_ping.id = 255 is out of range; allowed: 0..254 (no broadcast)",
+    );
     expect(toHex(encode(make("factory_reset", 255, {})))).toBe("fffeff02ee10");
     expect(() => make("factory_reset", 256, {})).toThrow(/0\.\.255 \(255 = broadcast\)/);
   });
@@ -75,7 +79,14 @@ describe("encode and decode", () => {
     const frame = encode(make("position_gains", 1, { kp: 1, ki: 0, kd: 0, rated_current: 1 }));
     frame[6] = 0; // kp 0 is below range
     frame[4] = (frame[4]! + 1) & 0xff;
-    expect(toRecord(decode(frame))).toEqual({ id: 1, message: "position_gains", kp: 0, ki: 0, kd: 0, rated_current: 1 });
+    expect(toRecord(decode(frame))).toEqual({
+      id: 1,
+      message: "position_gains",
+      kp: 0,
+      ki: 0,
+      kd: 0,
+      rated_current: 1,
+    });
   });
 
   it.each([

@@ -1,5 +1,5 @@
 /** An in-memory BytePort for tests: records every write and answers through a scripted responder. */
-import { Listeners, type BytePort } from "../src/bus/port.js";
+import { type BytePort, Listeners } from "../src/bus/port.js";
 
 /** Given the bytes the host wrote, what the "bus" sends back (nothing = silence). */
 export type Responder = (written: Uint8Array, port: FakePort) => Uint8Array | readonly Uint8Array[] | null;
@@ -23,7 +23,9 @@ export class FakePort implements BytePort {
     if (reply !== null) {
       const chunks = reply instanceof Uint8Array ? [reply] : reply;
       // deliver later, as a real line would, one chunk per macrotask
-      chunks.forEach((chunk, i) => setTimeout(() => this.inject(chunk), i));
+      chunks.forEach((chunk, i) => {
+        setTimeout(() => this.inject(chunk), i);
+      });
     }
     return Promise.resolve();
   }

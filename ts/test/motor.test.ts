@@ -1,7 +1,7 @@
 import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { VerifyError } from "../src/bus/errors.js";
-import { decode, encode, make, toRecord, type Message } from "../src/codec.js";
+import { decode, encode, type Message, make, toRecord } from "../src/codec.js";
 import { FieldRangeError } from "../src/errors.js";
 import { Motor } from "../src/motor.js";
 import { FakePort } from "./fake-port.js";
@@ -18,7 +18,8 @@ function controller(options: { deaf?: boolean } = {}) {
     if (m.name === "set_control") state.control = m.control;
     if (m.name === "request_rated_speed") return encode(make("rated_speed", 2, { rated_speed: state.rated_speed }));
     if (m.name === "request_control") return encode(make("control", 2, { control: state.control }));
-    if (m.name === "request_position") return encode(make("position_feedback", 2, { direction: 1, position: 18001, speed: 1234, current: 15 }));
+    if (m.name === "request_position")
+      return encode(make("position_feedback", 2, { direction: 1, position: 18001, speed: 1234, current: 15 }));
     return null;
   });
   return { port, sent, state };
@@ -44,7 +45,9 @@ describe("Motor", () => {
     const { port, sent } = controller();
     const motor = new Motor(new Bus(port), 2);
     await expect(motor.moveTo(700, 100)).rejects.toThrow(FieldRangeError);
-    await expect(motor.moveTo(700, 100)).rejects.toThrow(/position = 70000 is out of range; allowed: 0\.\.65533 \(0\.\.655\.33 deg\)/);
+    await expect(motor.moveTo(700, 100)).rejects.toThrow(
+      /position = 70000 is out of range; allowed: 0\.\.65533 \(0\.\.655\.33 deg\)/,
+    );
     await expect(motor.run(0, "cw")).rejects.toThrow(/speed = 0 is out of range/);
     expect(sent).toEqual([]);
   });
@@ -65,7 +68,9 @@ describe("Motor", () => {
   });
 
   it("raises VerifyError when the controller did not take the setting", async () => {
-    const motor = new Motor(new Bus(controller({ deaf: true }).port, { timing: { latencyMs: 10 } }), 2, { settleMs: 1 });
+    const motor = new Motor(new Bus(controller({ deaf: true }).port, { timing: { latencyMs: 10 } }), 2, {
+      settleMs: 1,
+    });
     const failure = motor.writeSetting("rated_speed", 2000);
     await expect(failure).rejects.toBeInstanceOf(VerifyError);
     await expect(failure).rejects.toThrow(/rated_speed: wrote 2000 but the controller reports 3000/);

@@ -1,6 +1,6 @@
 import fc from "fast-check";
 import { describe, expect, it } from "vitest";
-import { encode, make, toRecord, type Message } from "../src/codec.js";
+import { encode, type Message, make, toRecord } from "../src/codec.js";
 import { MESSAGE_NAMES } from "../src/generated/messages.js";
 import { SPECS } from "../src/generated/tables.js";
 import { StreamParser } from "../src/parser.js";
@@ -9,7 +9,9 @@ import { concat } from "./fake-port.js";
 const anyMessage: fc.Arbitrary<Message> = fc.constantFrom(...MESSAGE_NAMES).chain((name) => {
   const spec = SPECS[name];
   const fields = Object.fromEntries(spec.fields.map((f) => [f.name, fc.integer({ min: f.min, max: f.max })]));
-  return fc.record({ id: fc.integer({ min: 0, max: spec.maxId }), f: fc.record(fields) }).map(({ id, f }) => make(name as string, id, f));
+  return fc
+    .record({ id: fc.integer({ min: 0, max: spec.maxId }), f: fc.record(fields) })
+    .map(({ id, f }) => make(name as string, id, f));
 });
 
 function parseAll(stream: Uint8Array, cuts: number[]): { frames: Message[]; dropped: number } {
@@ -39,11 +41,19 @@ describe("stream parser", () => {
   });
 
   it("gives the same result however the stream is chunked, on any bytes", () => {
-    const stream = fc.array(fc.oneof(fc.uint8Array({ maxLength: 6 }), anyMessage.map(encode), fc.constant(new Uint8Array([0xff, 0xfe]))), { maxLength: 10 }).map((p) => concat(...p));
+    const stream = fc
+      .array(
+        fc.oneof(fc.uint8Array({ maxLength: 6 }), anyMessage.map(encode), fc.constant(new Uint8Array([0xff, 0xfe]))),
+        { maxLength: 10 },
+      )
+      .map((p) => concat(...p));
     fc.assert(
       fc.property(stream, fc.array(fc.nat(), { maxLength: 10 }), (bytes, cuts) => {
         const whole = parseAll(bytes, []);
-        const chunked = parseAll(bytes, cuts.map((c) => c % (bytes.length + 1)));
+        const chunked = parseAll(
+          bytes,
+          cuts.map((c) => c % (bytes.length + 1)),
+        );
         expect(chunked.frames).toEqual(whole.frames);
         expect(chunked.dropped).toBe(whole.dropped);
         const frameBytes = whole.frames.reduce((n, m) => n + SPECS[m.name].size + 4, 0);
@@ -80,7 +90,9 @@ describe("stream parser", () => {
     const parser = new StreamParser();
     expect(parser.feed(frame.subarray(0, 7))).toEqual([]);
     expect(parser.pending).toBe(7);
-    expect(parser.feed(frame.subarray(7)).map(toRecord)).toEqual([{ id: 7, message: "position_feedback", direction: 0, position: 18000, speed: 0, current: 0 }]);
+    expect(parser.feed(frame.subarray(7)).map(toRecord)).toEqual([
+      { id: 7, message: "position_feedback", direction: 0, position: 18000, speed: 0, current: 0 },
+    ]);
     parser.feed(frame.subarray(0, 5));
     expect(parser.finish()).toEqual([]);
     expect(parser.stats.droppedBytes).toBe(5);

@@ -2,7 +2,7 @@
  * The library against the simulator (python -m nurimc.sim) through a Node serial port on
  * its pseudo-terminal: the same path a USB-RS485 adapter takes.
  */
-import { spawn, type ChildProcess } from "node:child_process";
+import { type ChildProcess, spawn } from "node:child_process";
 import { existsSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
@@ -23,7 +23,9 @@ const RATE = 115200;
 /** Start the simulator; resolves with the process once it prints `ready:`. */
 function startSim(): Promise<ChildProcess> {
   return new Promise((resolve, reject) => {
-    const sim = spawn(PYTHON, ["-m", "nurimc.sim", "--link", LINK, "--ids", "0,1", "--baud", String(RATE)], { stdio: ["ignore", "pipe", "pipe"] });
+    const sim = spawn(PYTHON, ["-m", "nurimc.sim", "--link", LINK, "--ids", "0,1", "--baud", String(RATE)], {
+      stdio: ["ignore", "pipe", "pipe"],
+    });
     let output = "";
     const timer = setTimeout(() => reject(new Error(`simulator not ready after 20 s:\n${output}`)), 20_000);
     sim.stdout.on("data", (chunk: Buffer) => {
@@ -33,7 +35,9 @@ function startSim(): Promise<ChildProcess> {
         resolve(sim);
       }
     });
-    sim.stderr.on("data", (chunk: Buffer) => (output += chunk.toString()));
+    sim.stderr.on("data", (chunk: Buffer) => {
+      output += chunk.toString();
+    });
     sim.on("exit", (code) => reject(new Error(`simulator exited (${code}) before ready:\n${output}`)));
   });
 }

@@ -2,8 +2,8 @@ import { execFileSync } from "node:child_process";
 import { fileURLToPath } from "node:url";
 import fc from "fast-check";
 import { describe, expect, it } from "vitest";
-import { describeRange, fromWire, toWire } from "../src/units.js";
 import { SPECS } from "../src/generated/tables.js";
+import { describeRange, fromWire, toWire } from "../src/units.js";
 
 const ROOT = fileURLToPath(new URL("../..", import.meta.url));
 const SCALES = [0.01, 0.1, 1, 100];
@@ -57,7 +57,8 @@ describe("units", () => {
       { numRuns: 600, seed: 7 },
     );
     const cases = values.flatMap((v) => SCALES.map((s) => [v, s] as const));
-    const script = "import json,sys\nfrom nurimc.protocol.units import to_wire\nprint(json.dumps([to_wire(v, s) for v, s in json.load(sys.stdin)]))";
+    const script =
+      "import json,sys\nfrom nurimc.protocol.units import to_wire\nprint(json.dumps([to_wire(v, s) for v, s in json.load(sys.stdin)]))";
     const python = execFileSync("python3", ["-c", script], {
       input: JSON.stringify(cases),
       env: { ...process.env, PYTHONPATH: `${ROOT}python/src` },

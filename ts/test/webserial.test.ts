@@ -2,7 +2,7 @@ import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { PortError } from "../src/bus/errors.js";
 import { decode, encode, make } from "../src/codec.js";
-import { WebSerialPort, type WebSerialDevice } from "../src/ports/webserial.js";
+import { type WebSerialDevice, WebSerialPort } from "../src/ports/webserial.js";
 
 /** A Web Serial SerialPort made of web streams (Node 20 has them): what the browser hands us. */
 class FakeSerialDevice implements WebSerialDevice {
@@ -16,7 +16,8 @@ class FakeSerialDevice implements WebSerialDevice {
   constructor(private readonly answer: (written: Uint8Array) => Uint8Array | null) {}
 
   open(options: SerialOptions): Promise<void> {
-    if (this.readable !== null) return Promise.reject(new DOMException("The port is already open.", "InvalidStateError"));
+    if (this.readable !== null)
+      return Promise.reject(new DOMException("The port is already open.", "InvalidStateError"));
     this.opens.push(options);
     this.readable = new ReadableStream<Uint8Array>({
       start: (controller) => {

@@ -70,9 +70,9 @@ static int query(nurimc_bus *bus, nurimc_message_type type, uint8_t id, nurimc_m
 static int status_of(nurimc_bus *bus, uint8_t id) {
     nurimc_message a;
     if (query(bus, NURIMC_MSG_REQUEST_POSITION, id, &a)) return 1;
-    printf("position   %s %.2f deg, speed %.1f rpm, current %.1f A\n",
-           a.u.position_feedback.direction ? "cw" : "ccw", a.u.position_feedback.position / 100.0,
-           a.u.position_feedback.speed / 10.0, a.u.position_feedback.current / 10.0);
+    printf("position   %s %.2f deg, speed %.1f rpm, current %.1f A\n", a.u.position_feedback.direction ? "cw" : "ccw",
+           a.u.position_feedback.position / 100.0, a.u.position_feedback.speed / 10.0,
+           a.u.position_feedback.current / 10.0);
     if (query(bus, NURIMC_MSG_REQUEST_SPEED, id, &a)) return 1;
     printf("speed      %s %.1f rpm (position %.1f deg)\n", a.u.speed_feedback.direction ? "cw" : "ccw",
            a.u.speed_feedback.speed / 10.0, a.u.speed_feedback.position / 10.0);
@@ -96,7 +96,8 @@ int main(int argc, char **argv) {
     status = nurimc_bus_open(&bus, argv[1], (uint32_t)baud);
     if (status == NURIMC_E_BAUD) {
         fprintf(stderr, "error: %ld is not one of the protocol's baud rates:", baud);
-        for (id = 0; id < (long)NURIMC_BAUD_RATE_COUNT; id++) fprintf(stderr, " %lu", (unsigned long)nurimc_baud_rates[id]);
+        for (id = 0; id < (long)NURIMC_BAUD_RATE_COUNT; id++)
+            fprintf(stderr, " %lu", (unsigned long)nurimc_baud_rates[id]);
         fputc('\n', stderr);
         return 2;
     }
@@ -112,7 +113,8 @@ int main(int argc, char **argv) {
         long position, speed;
         int cw = argc == 8 && strcmp(argv[7], "cw") == 0;
         if (argc == 8 && !cw && strcmp(argv[7], "ccw") != 0) return usage();
-        if (to_wire(argv[5], "DEGREES", 100.0, 0, 65533, &position) || to_wire(argv[6], "RPM", 10.0, 1, 65533, &speed)) {
+        if (to_wire(argv[5], "DEGREES", 100.0, 0, 65533, &position) ||
+            to_wire(argv[6], "RPM", 10.0, 1, 65533, &speed)) {
             rc = 2;
         } else {
             cmd.u.position_speed.direction = (uint8_t)cw;

@@ -23,8 +23,7 @@ static void pause_us(uint32_t us) {
     struct timespec ts;
     ts.tv_sec = (time_t)(us / 1000000u);
     ts.tv_nsec = (long)(us % 1000000u) * 1000L;
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
-    }
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {}
 }
 
 nurimc_status nurimc_bus_open(nurimc_bus *bus, const char *path, uint32_t baud) {
@@ -87,7 +86,7 @@ uint32_t nurimc_bus_busy_window_us(const nurimc_bus *bus, uint8_t id) {
     if (bus->busy_windows_us[id] != NURIMC_BUSY_WINDOW_UNSET) return bus->busy_windows_us[id];
     if (bus->busy_window_us != NURIMC_BUSY_WINDOW_UNSET) return bus->busy_window_us;
     return nurimc_profile_busy_window_us(bus->products[id] >= 0 ? (nurimc_profile)bus->products[id]
-                                                                 : NURIMC_DEFAULT_PROFILE);
+                                                                : NURIMC_DEFAULT_PROFILE);
 }
 
 uint64_t nurimc_bus_busy_until_us(const nurimc_bus *bus, uint8_t id) {
@@ -138,7 +137,8 @@ static void mark_busy(nurimc_bus *bus, const nurimc_message *msg, size_t frame_l
     end = now_us() + wire_us(bus, frame_length) + bus->adapter_latency_us;
     mark_one(bus, msg->id, end);
     if (msg->type == NURIMC_MSG_SET_ID) mark_one(bus, msg->u.set_id.new_id, end);
-    if (msg->type == NURIMC_MSG_FACTORY_RESET && msg->id != NURIMC_BROADCAST_ID) mark_one(bus, 0, end); /* back as ID 0 */
+    if (msg->type == NURIMC_MSG_FACTORY_RESET && msg->id != NURIMC_BROADCAST_ID)
+        mark_one(bus, 0, end); /* back as ID 0 */
 }
 
 /* Rule 6: was a request sent at `sent_at` within one more window after the ID's window ended? */
@@ -236,8 +236,7 @@ nurimc_status nurimc_bus_request(nurimc_bus *bus, const nurimc_message *request,
     return status;
 }
 
-nurimc_status nurimc_bus_query(nurimc_bus *bus, nurimc_message_type request_type, uint8_t id,
-                               nurimc_message *answer) {
+nurimc_status nurimc_bus_query(nurimc_bus *bus, nurimc_message_type request_type, uint8_t id, nurimc_message *answer) {
     nurimc_message request = nurimc_message_init(request_type, id);
     return nurimc_bus_request(bus, &request, answer);
 }

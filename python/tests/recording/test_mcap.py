@@ -57,7 +57,7 @@ def make_recording(path: Path) -> tuple[list[msgs.JointState], Bytes]:
     bridge = Bridge([1, 2], ["a", "b"])
     procedures = [bus.motor(i).procedures for i in (1, 2)]
     bus.motor(2).run(60)
-    written = []
+    written: list[Any] = []
     for _ in range(5):
         time.sleep(0.05)  # 60 RPM: 18 degrees between readings
         bridge.readings(bus.run(read_states(procedures)))
@@ -86,7 +86,8 @@ def test_mcap_reader_gets_the_same_messages(tmp_path: Path) -> None:
         assert schemas["sensor_msgs/msg/JointState"].data.decode().startswith("std_msgs/Header header\n")
         for schema, channel, message in reader.iter_messages():
             assert channel.message_encoding == "cdr"
-            decoded = msgs.TYPES[schema.name].deserialize(message.data)
+            assert schema is not None
+            decoded: Any = msgs.TYPES[schema.name].deserialize(message.data)
             if channel.topic == "/joint_states":
                 assert message.log_time == decoded.header.stamp.to_ns()
                 states.append(decoded)
@@ -111,6 +112,7 @@ def test_rosbags_reads_the_same_values(tmp_path: Path) -> None:
     ours: dict[str, list[Any]] = {"/joint_states": [], FRAMES_TOPIC: []}
     with path.open("rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages():
+            assert schema is not None
             ours[channel.topic].append(plain(msgs.TYPES[schema.name].deserialize(message.data)))
     theirs: dict[str, list[Any]] = {"/joint_states": [], FRAMES_TOPIC: []}
     with AnyReader([path], default_typestore=typestore()) as reader:  # the Frame type comes from the file

@@ -5,6 +5,9 @@ Nothing here comes from nurimc: the types are written from the ROS 2 message def
 so what it exchanges with the bridge is what a ROS 2 node would.
 """
 
+# Cyclone DDS IDL annotations (sequence[float64], ...) are run-time type markers its stubs do not
+# model as generics.
+# mypy: disable-error-code="type-arg,arg-type"
 # No `from __future__ import annotations`: Cyclone DDS reads the field types at run time.
 import os
 import time

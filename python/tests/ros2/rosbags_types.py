@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import fields, is_dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -30,7 +30,7 @@ def to_rosbags(store: Typestore, message: Any) -> Any:
         if node_type == NAME:
             value = to_rosbags(store, value)
         elif node_type == SEQUENCE:
-            (inner_type, inner), _ = detail
+            (inner_type, inner), _ = cast(Any, detail)
             if inner_type == NAME:
                 value = [to_rosbags(store, v) for v in value]
             elif inner[0] == "string":

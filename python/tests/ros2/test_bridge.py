@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, cast
 
 import pytest
 
@@ -13,13 +15,16 @@ from nurimc.ros2.bridge import MAX_RPM, Bridge, Hold, MoveTo, Refused, ReleaseAl
 from nurimc.ros2.dds import domain_id
 from nurimc.ros2.names import NameError_, dds_topic, joint_names, namespace, topic
 
+# pytest.approx compares equal to a float; typed as one so it can stand in a MoveTo
+approx = cast(Callable[[float], float], pytest.approx)
+
 
 def state(device_id: int, position: float, device: float | None = None, speed: float = 0.0) -> MotorState:
     device = position if device is None else device
     return MotorState(device_id, position, device, speed, 0.4, "cw" if device < 0 else "ccw")
 
 
-def bridge(**options: float) -> Bridge:
+def bridge(**options: Any) -> Bridge:
     b = Bridge([1, 2], ["a", "b"], **options)
     b.readings({1: state(1, 0.0), 2: state(2, 0.0)})
     return b
@@ -30,7 +35,7 @@ def test_position_commands_are_radians_in_the_published_frame() -> None:
     # motor 2 has made two whole turns of the device's 655.36 degree counter: continuous 1320.72, device 10
     b.readings({1: state(1, 0.0), 2: state(2, 1320.72, 10.0)})
     actions = b.position_command([math.pi / 2, convert.deg_to_rad(1330.72)], now=0.0)
-    assert actions == [MoveTo(1, 90.0, pytest.approx(60.0)), MoveTo(2, 20.0, pytest.approx(60.0))]
+    assert actions == [MoveTo(1, 90.0, approx(60.0)), MoveTo(2, 20.0, approx(60.0))]
     assert [j.mode for j in b.joints] == ["position", "position"]
 
 
@@ -141,7 +146,7 @@ def test_diagnostics_per_motor_and_bus() -> None:
     ("options", "why"),
     [({"command_timeout": -1}, "command timeout"), ({"move_velocity": 0.0}, "move velocity")],
 )
-def test_bad_bridge_options(options: dict[str, float], why: str) -> None:
+def test_bad_bridge_options(options: dict[str, Any], why: str) -> None:
     with pytest.raises(ValueError, match=why):
         Bridge([1], ["a"], **options)
 

@@ -89,7 +89,7 @@ def test_a_joint_state_by_hand() -> None:
         velocity=[2.0, 0.0],
         effort=[0.3, 0.0],
     )
-    decoded = STORE.deserialize_cdr(ours.serialize(), "sensor_msgs/msg/JointState")
+    decoded: Any = STORE.deserialize_cdr(ours.serialize(), "sensor_msgs/msg/JointState")
     assert decoded.name == ["motor_1", "motor_2"]
     assert decoded.position.tolist() == [math.pi / 2, -1.0]
     assert (decoded.header.stamp.sec, decoded.header.stamp.nanosec, decoded.header.frame_id) == (12, 500, "base")

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import time
-
-import serial
+from typing import Protocol
 
 MODES = {
     "position_speed": 0x01, "accel_position": 0x02, "accel_speed": 0x03, "position_gains": 0x04,
@@ -14,6 +13,16 @@ MODES = {
 }  # fmt: skip
 ANSWER_SIZE = {0xA0: 2, 0xA1: 8, 0xA2: 8, 0xA3: 6, 0xA4: 6, 0xA5: 3, 0xA6: 4, 0xA7: 4, 0xA8: 4, 0xA9: 3,
                0xAA: 3, 0xAB: 3, 0xCD: 3}  # fmt: skip
+
+
+class Port(Protocol):
+    """What these helpers need of a port: pyserial's Serial, or the fake-clock port."""
+
+    timeout: float | None
+
+    def write(self, data: bytes, /) -> int | None: ...
+    def read(self, size: int = 1, /) -> bytes: ...
+    def reset_input_buffer(self) -> None: ...
 
 
 def frame(ident: int, mode: int, data: bytes = b"") -> bytes:
@@ -26,7 +35,7 @@ def u16(value: int) -> bytes:
     return value.to_bytes(2, "big")
 
 
-def command(port: serial.SerialBase, ident: int, name: str, data: bytes = b"") -> None:
+def command(port: Port, ident: int, name: str, data: bytes = b"") -> None:
     port.write(frame(ident, MODES[name], data))
 
 
@@ -40,7 +49,7 @@ def parse_answer(raw: bytes, ident: int, request_mode: int) -> bytes | None:
     return raw[6:]
 
 
-def ask(port: serial.SerialBase, ident: int, mode: int, patience: float = 1.0) -> bytes | None:
+def ask(port: Port, ident: int, mode: int, patience: float = 1.0) -> bytes | None:
     """Send a request, return the answer's data. Retries while the controller is busy (EEPROM)."""
     size = ANSWER_SIZE[mode] + 4
     deadline = time.monotonic() + patience
@@ -57,7 +66,7 @@ def ask(port: serial.SerialBase, ident: int, mode: int, patience: float = 1.0) -
         port.timeout = old
 
 
-def silent(port: serial.SerialBase, ident: int, mode: int, wait: float = 0.15) -> bool:
+def silent(port: Port, ident: int, mode: int, wait: float = 0.15) -> bool:
     """True if nothing at all comes back to a request within `wait`."""
     port.reset_input_buffer()
     port.write(frame(ident, mode))
@@ -69,7 +78,7 @@ def silent(port: serial.SerialBase, ident: int, mode: int, wait: float = 0.15) -
         port.timeout = old
 
 
-def position(port: serial.SerialBase, ident: int) -> float:
+def position(port: Port, ident: int) -> float:
     """Position feedback in degrees, CCW positive."""
     data = ask(port, ident, 0xA1)
     assert data is not None, "no position feedback"

@@ -18,14 +18,21 @@
  *   a busy ID before its window ends: the client waits it out. Silence from a request sent
  *   within one more window after that is a ControllerBusyError, not a wiring problem.
  */
-import { answerName, encode, messageSpec, type AnswerMessageOf, type Message, type MessageOf } from "../codec.js";
-import type { AnswerOf } from "../generated/messages.js";
+import { type AnswerMessageOf, answerName, encode, type Message, type MessageOf, messageSpec } from "../codec.js";
 import { DEFAULT_PROFILE, EEPROM_WRITES, HOST_PROFILES, HOST_TIMING } from "../generated/host.js";
+import type { AnswerOf } from "../generated/messages.js";
 import { BAUD_RATES, BROADCAST_ID } from "../generated/tables.js";
 import { StreamParser } from "../parser.js";
-import { BusClosedError, BusError, ControllerBusyError, CorruptedAnswerError, NoAnswerError, UnexpectedAnswerError } from "./errors.js";
+import {
+  BusClosedError,
+  BusError,
+  ControllerBusyError,
+  CorruptedAnswerError,
+  NoAnswerError,
+  UnexpectedAnswerError,
+} from "./errors.js";
 import type { BytePort } from "./port.js";
-import { answerDeadlineMs, DEFAULT_TIMING, wireTimeMs, type Timing } from "./timing.js";
+import { answerDeadlineMs, DEFAULT_TIMING, type Timing, wireTimeMs } from "./timing.js";
 
 /** Requests with an answer (all of them: every request is answered). */
 type RequestName = keyof AnswerOf;
@@ -124,14 +131,22 @@ export class Bus {
     const timing = { ...DEFAULT_TIMING, ...options.timing };
     for (const [key, value] of Object.entries(timing)) nonNegative(`timing.${key}`, value);
     this.timing = timing;
-    this.responseTimesUs = new Map(Object.entries(options.responseTimesUs ?? {}).map(([id, us]) => [Number(id), nonNegative("responseTimesUs", us)]));
+    this.responseTimesUs = new Map(
+      Object.entries(options.responseTimesUs ?? {}).map(([id, us]) => [Number(id), nonNegative("responseTimesUs", us)]),
+    );
     this.retries = nonNegative("retries", options.retries ?? HOST_TIMING.retries);
     this.retryPauseMs = nonNegative("retryPauseMs", options.retryPauseMs ?? HOST_TIMING.retryPauseMs);
-    this.busyWindowMs = options.busyWindowMs === undefined ? undefined : nonNegative("busyWindowMs", options.busyWindowMs);
+    this.busyWindowMs =
+      options.busyWindowMs === undefined ? undefined : nonNegative("busyWindowMs", options.busyWindowMs);
     this.busyWindowsMs = new Map(
-      Object.entries(options.busyWindowsMs ?? {}).map(([id, ms]) => [deviceId("busyWindowsMs", id), nonNegative("busyWindowsMs", ms)]),
+      Object.entries(options.busyWindowsMs ?? {}).map(([id, ms]) => [
+        deviceId("busyWindowsMs", id),
+        nonNegative("busyWindowsMs", ms),
+      ]),
     );
-    this.products = new Map(Object.entries(options.products ?? {}).map(([id, product]) => [deviceId("products", id), knownProduct(product)]));
+    this.products = new Map(
+      Object.entries(options.products ?? {}).map(([id, product]) => [deviceId("products", id), knownProduct(product)]),
+    );
     this.now = options.now ?? (() => performance.now());
     this.onTraffic = options.onTraffic;
     this.unsubscribe = [
@@ -149,7 +164,9 @@ export class Bus {
   /** Switch the host's rate (one of the 18 the controllers support). */
   setBaudRate(rate: number): Promise<void> {
     if (!BAUD_RATES.includes(rate)) {
-      return Promise.reject(new RangeError(`${rate} bps is not a rate these controllers support; use one of ${BAUD_RATES.join(", ")}`));
+      return Promise.reject(
+        new RangeError(`${rate} bps is not a rate these controllers support; use one of ${BAUD_RATES.join(", ")}`),
+      );
     }
     return this.exclusive(() => this.port.setBaudRate(rate));
   }
@@ -160,7 +177,8 @@ export class Bus {
     try {
       for (const command of commands) {
         const spec = messageSpec(command.name);
-        if (spec.kind !== "command") throw new BusError(`${command.name} is a ${spec.kind}, not a command; use request() for feedback requests`);
+        if (spec.kind !== "command")
+          throw new BusError(`${command.name} is a ${spec.kind}, not a command; use request() for feedback requests`);
         frames.push(encode(command));
       }
     } catch (err) {
@@ -183,7 +201,11 @@ export class Bus {
   request(request: Message, options: { retries?: number } = {}): Promise<Message> {
     const spec = messageSpec(request.name);
     if (spec.kind !== "request") {
-      return Promise.reject(new BusError(`${request.name} is a ${spec.kind}, not a request; commands are sent with send() and never answered`));
+      return Promise.reject(
+        new BusError(
+          `${request.name} is a ${spec.kind}, not a request; commands are sent with send() and never answered`,
+        ),
+      );
     }
     let frame: Uint8Array;
     try {
@@ -247,7 +269,9 @@ export class Bus {
       this.parser.clear(); // stale partial bytes from before this request
       const before = { ...this.parser.stats };
       let settle: (message: Message | null) => void = () => undefined;
-      const got = new Promise<Message | null>((resolve) => (settle = resolve));
+      const got = new Promise<Message | null>((resolve) => {
+        settle = resolve;
+      });
       const pending: Pending = { request, answer, unexpected: [], resolve: (message) => settle(message) };
       this.pending = pending; // before the write: a fast answer may come before write() resolves
       let timer: ReturnType<typeof setTimeout> | undefined;
@@ -265,7 +289,8 @@ export class Bus {
       const badChecksum = this.parser.stats.badChecksum - before.badChecksum;
       // the last attempt's failure is reported, in the Python library's order of precedence
       if (pending.unexpected.length > 0) failure = new UnexpectedAnswerError(request, pending.unexpected);
-      else if (dropped > 0 || badChecksum > 0) failure = new CorruptedAnswerError(request, attempt + 1, dropped, badChecksum);
+      else if (dropped > 0 || badChecksum > 0)
+        failure = new CorruptedAnswerError(request, attempt + 1, dropped, badChecksum);
       else if (this.recentlyBusy(request.id, firstSentAt)) {
         failure = new ControllerBusyError(request, attempt + 1, timeout, this.port.baudRate, this.windowMs(request.id));
       } else failure = new NoAnswerError(request, attempt + 1, timeout, this.port.baudRate);
@@ -276,7 +301,10 @@ export class Bus {
   }
 
   private async transmit(messages: Message[], frame: Uint8Array): Promise<void> {
-    if (this.closed !== null) throw this.closed instanceof BusError ? this.closed : new BusClosedError(`the port failed: ${this.closed.message}`, { cause: this.closed });
+    if (this.closed !== null)
+      throw this.closed instanceof BusError
+        ? this.closed
+        : new BusClosedError(`the port failed: ${this.closed.message}`, { cause: this.closed });
     for (const message of messages) this.onTraffic?.({ direction: "tx", time: Date.now() - this.opened, message });
     await this.port.write(frame);
   }
@@ -339,7 +367,10 @@ export class Bus {
   /** Run `task` after every earlier call has finished (half-duplex: one transaction at a time). */
   private exclusive<T>(task: () => Promise<T>): Promise<T> {
     const run = this.queue.then(() => {
-      if (this.closed !== null) throw this.closed instanceof BusError ? this.closed : new BusClosedError(`the port failed: ${this.closed.message}`);
+      if (this.closed !== null)
+        throw this.closed instanceof BusError
+          ? this.closed
+          : new BusClosedError(`the port failed: ${this.closed.message}`);
       return task();
     });
     this.queue = run.catch(() => undefined);
@@ -355,18 +386,20 @@ function profileWindowMs(product: string): number {
 
 function deviceId(option: string, key: string): number {
   const id = Number(key);
-  if (!Number.isInteger(id) || id < 0 || id > 254) throw new RangeError(`bus option ${option}: ID ${key} is not 0..254`);
+  if (!Number.isInteger(id) || id < 0 || id > 254)
+    throw new RangeError(`bus option ${option}: ID ${key} is not 0..254`);
   return id;
 }
 
 function knownProduct(product: string): string {
-  if (!Object.prototype.hasOwnProperty.call(HOST_PROFILES, product)) {
+  if (!Object.hasOwn(HOST_PROFILES, product)) {
     throw new RangeError(`unknown product ${JSON.stringify(product)}; known: ${Object.keys(HOST_PROFILES).join(", ")}`);
   }
   return product;
 }
 
 function nonNegative(name: string, value: number): number {
-  if (!Number.isFinite(value) || value < 0) throw new RangeError(`bus option ${name} = ${value}: must be a finite number >= 0`);
+  if (!Number.isFinite(value) || value < 0)
+    throw new RangeError(`bus option ${name} = ${value}: must be a finite number >= 0`);
   return value;
 }

@@ -98,7 +98,13 @@ export class VerifyError extends BusError {
  */
 export class ControllerBusyError extends NoAnswerError {
   override name = "ControllerBusyError";
-  constructor(request: Message, attempts: number, timeoutMs: number, baudRate: number, readonly busyWindowMs: number) {
+  constructor(
+    request: Message,
+    attempts: number,
+    timeoutMs: number,
+    baudRate: number,
+    readonly busyWindowMs: number,
+  ) {
     super(request, attempts, timeoutMs, baudRate);
     this.message =
       `no answer to ${describe(request)} after ${attempts} attempt(s): controller ${request.id} is busy writing its ` +

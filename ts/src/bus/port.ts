@@ -57,7 +57,10 @@ export async function* receive(port: BytePort, signal?: AbortSignal): AsyncGener
     while (signal?.aborted !== true) {
       const chunk = queue.shift();
       if (chunk !== undefined) yield chunk;
-      else await new Promise<void>((resolve) => (wake = resolve));
+      else
+        await new Promise<void>((resolve) => {
+          wake = resolve;
+        });
     }
   } finally {
     unsubscribe();

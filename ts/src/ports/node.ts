@@ -5,7 +5,7 @@
  */
 import { SerialPort } from "serialport";
 import { PortError } from "../bus/errors.js";
-import { Listeners, type BytePort, type DataListener, type ErrorListener } from "../bus/port.js";
+import { type BytePort, type DataListener, type ErrorListener, Listeners } from "../bus/port.js";
 
 export class NodeSerialPort implements BytePort {
   private readonly data = new Listeners<Uint8Array>();
@@ -68,8 +68,10 @@ export class NodeSerialPort implements BytePort {
 function portError(path: string, err: Error): PortError {
   const text = err.message;
   let fix = "";
-  if (/ENOENT|No such file/i.test(text)) fix = "; no such device: check the cable and the name (ls /dev/ttyUSB* /dev/ttyACM*)";
-  else if (/EACCES|Permission denied/i.test(text)) fix = "; permission denied: add yourself to the dialout group (sudo usermod -aG dialout $USER, then log in again)";
+  if (/ENOENT|No such file/i.test(text))
+    fix = "; no such device: check the cable and the name (ls /dev/ttyUSB* /dev/ttyACM*)";
+  else if (/EACCES|Permission denied/i.test(text))
+    fix = "; permission denied: add yourself to the dialout group (sudo usermod -aG dialout $USER, then log in again)";
   else if (/EBUSY|Resource busy|Cannot lock/i.test(text)) fix = "; the port is in use by another program: close it";
   return new PortError(`${path}: ${text}${fix}`, { cause: err });
 }

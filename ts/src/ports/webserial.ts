@@ -8,7 +8,7 @@
  * reopens it (written bytes are flushed first).
  */
 import { BusError, PortError } from "../bus/errors.js";
-import { Listeners, type BytePort, type DataListener, type ErrorListener } from "../bus/port.js";
+import { type BytePort, type DataListener, type ErrorListener, Listeners } from "../bus/port.js";
 
 /** The part of the Web Serial `SerialPort` this class uses (so tests can pass a fake). */
 export type WebSerialDevice = Pick<SerialPort, "open" | "close" | "readable" | "writable">;
@@ -75,7 +75,10 @@ export class WebSerialPort implements BytePort {
     try {
       await this.device.open({ baudRate: this.rate, dataBits: 8, stopBits: 1, parity: "none", flowControl: "none" });
     } catch (err) {
-      throw new PortError(`cannot open the serial port at ${this.rate} bps (in use by another program or tab?): ${String(err)}`, { cause: err });
+      throw new PortError(
+        `cannot open the serial port at ${this.rate} bps (in use by another program or tab?): ${String(err)}`,
+        { cause: err },
+      );
     }
     this.isOpen = true;
     this.reading = this.readLoop();

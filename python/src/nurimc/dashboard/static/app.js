@@ -1,7 +1,8 @@
 // The console page: picks its mode (server or direct Web Serial), then wires the views.
-import uPlot from "./vendor/uplot/uPlot.esm.js";
-import { ServerLink } from "./server-link.js";
+
 import { DirectLink } from "./direct-link.js";
+import { ServerLink } from "./server-link.js";
+import uPlot from "./vendor/uplot/uPlot.esm.js";
 
 const WINDOW_S = 10; // seconds of history in the live plots
 const KEEP_S = 60; // seconds kept per motor (for pause, zoom and CSV export)
@@ -10,7 +11,10 @@ const MAX_TOASTS = 4;
 const DEVICE_LIMIT = 655.35; // the device reports positions within ±655.35°; commands reach ±655.33°
 const MOVE_LIMIT = 655.33;
 // The controllers' 18 rates (spec/protocol.json); the one list on this page.
-const BAUD_RATES = [110, 300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 28800, 38400, 57600, 76800, 115200, 230400, 250000, 500000, 1000000];
+const BAUD_RATES = [
+  110, 300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 28800, 38400, 57600, 76800, 115200, 230400, 250000, 500000,
+  1000000,
+];
 const COLOURS = ["#2457c5", "#d97706", "#059669", "#7c3aed", "#db2777", "#0891b2", "#65a30d", "#b91c1c"];
 
 const $ = (selector) => document.querySelector(selector);
@@ -41,14 +45,21 @@ window.dashboard = dashboard;
 function say(text, kind = "info") {
   const box = $("#messages");
   const same = [...box.children].find((t) => t.dataset.text === text);
-  if (same) { // the same message again: count it instead of stacking another
+  if (same) {
+    // the same message again: count it instead of stacking another
     same.dataset.count = Number(same.dataset.count ?? 1) + 1;
     same.querySelector(".count").textContent = `×${same.dataset.count}`;
     box.append(same);
     return same;
   }
   const close = build("button", { className: "close", textContent: "×", title: "close", ariaLabel: "close message" });
-  const toast = build("div", { className: `message ${kind}` }, build("span", { className: "text", textContent: text }), build("span", { className: "count" }), close);
+  const toast = build(
+    "div",
+    { className: `message ${kind}` },
+    build("span", { className: "text", textContent: text }),
+    build("span", { className: "count" }),
+    close,
+  );
   toast.dataset.text = text;
   close.onclick = () => toast.remove();
   box.append(toast);
@@ -81,7 +92,11 @@ async function ask(op, args) {
 
 // ---- strict input: an empty or invalid field is an error, never a value --------------------
 class InputProblem extends Error {}
-function readNumber(input, label, { min = -Infinity, max = Infinity, integer = false, above = null, nonzero = false } = {}) {
+function readNumber(
+  input,
+  label,
+  { min = -Infinity, max = Infinity, integer = false, above = null, nonzero = false } = {},
+) {
   const raw = input.value.trim();
   const fail = (why) => {
     input.setAttribute("aria-invalid", "true");
@@ -144,7 +159,8 @@ function setConnected(connected, detail = "") {
 }
 
 function showRetry({ delay }) {
-  $("#banner-detail").textContent = `Reconnecting in ${(delay / 1000).toFixed(1)} s… If a motor is moving, cut its power.`;
+  $("#banner-detail").textContent =
+    `Reconnecting in ${(delay / 1000).toFixed(1)} s… If a motor is moving, cut its power.`;
 }
 
 async function onHello(hello) {
@@ -155,7 +171,8 @@ async function onHello(hello) {
   if (known.length) {
     setMotors(known);
     await ask("watch", { ids: known.map((m) => m.id) }).catch(() => {});
-  } else if (mine.length) { // the server restarted and forgot them: look again at the rates they were at
+  } else if (mine.length) {
+    // the server restarted and forgot them: look again at the rates they were at
     say("the server was restarted: finding the motors again", "info");
     await runDiscovery([...new Set(mine.map((m) => m.baudrate))]).catch(() => {});
   } else if (!dashboard.everDiscovered) {
@@ -168,7 +185,8 @@ async function startDirect() {
   $("#mode").textContent = "direct · Web Serial";
   const button = $("#connect");
   const rates = $("#direct-baud");
-  for (const rate of BAUD_RATES) rates.append(build("option", { value: rate, textContent: `${rate} bps`, selected: rate === 115200 }));
+  for (const rate of BAUD_RATES)
+    rates.append(build("option", { value: rate, textContent: `${rate} bps`, selected: rate === 115200 }));
   button.classList.remove("hidden");
   rates.classList.remove("hidden");
   setConnected(false, "direct mode: connect a serial port");
@@ -182,7 +200,9 @@ async function startDirect() {
     return;
   }
   if (!("serial" in navigator)) {
-    setStatus("this browser has no Web Serial: use Chrome or Edge on https:// or http://localhost, or run `nurimc dashboard`");
+    setStatus(
+      "this browser has no Web Serial: use Chrome or Edge on https:// or http://localhost, or run `nurimc dashboard`",
+    );
     button.disabled = true;
     return;
   }
@@ -206,14 +226,18 @@ function useLink(link) {
   link.on("frames", (m) => addFrames(m.frames));
   link.on("estop", showEstop);
   link.on("motors", (m) => setMotors(m.motors));
-  link.on("motor_error", (m) => say(m.kind === "busy" ? m.message : `ID ${m.id}: ${m.message}`, m.kind === "busy" ? "info" : "error"));
+  link.on("motor_error", (m) =>
+    say(m.kind === "busy" ? m.message : `ID ${m.id}: ${m.message}`, m.kind === "busy" ? "info" : "error"),
+  );
 }
 $("#reconnect").onclick = () => dashboard.link?.retryNow?.();
 
 // ---- discovery ----------------------------------------------------------------------------
-for (const rate of BAUD_RATES) $("#discover-rates").append(build("option", { value: rate, textContent: `${rate} only` }));
+for (const rate of BAUD_RATES)
+  $("#discover-rates").append(build("option", { value: rate, textContent: `${rate} only` }));
 for (const select of document.querySelectorAll(".baud-select")) {
-  for (const rate of BAUD_RATES) select.append(build("option", { value: rate, textContent: `${rate} bps`, selected: rate === 115200 }));
+  for (const rate of BAUD_RATES)
+    select.append(build("option", { value: rate, textContent: `${rate} bps`, selected: rate === 115200 }));
 }
 
 async function runDiscovery(rates) {
@@ -223,7 +247,8 @@ async function runDiscovery(rates) {
   try {
     const result = await ask("discover", rates ? { rates } : {});
     $("#discover-progress").value = $("#discover-progress").max;
-    $("#discover-text").textContent = `found ${result.motors.length} motor(s): ${result.motors.map((m) => `ID ${m.id} @ ${m.baudrate}`).join(", ") || "none"}`;
+    $("#discover-text").textContent =
+      `found ${result.motors.length} motor(s): ${result.motors.map((m) => `ID ${m.id} @ ${m.baudrate}`).join(", ") || "none"}`;
     $("#discover-text").dataset.found = result.motors.map((m) => m.id).join(",");
     setMotors(result.known ?? result.motors);
     await ask("watch", { ids: [...dashboard.motors.keys()] });
@@ -242,7 +267,8 @@ function showProgress(p) {
   $("#discover-progress").max = p.total;
   $("#discover-progress").value = p.index + 1;
   const walking = p.walking_id != null ? `, pinging ID ${p.walking_id}` : "";
-  $("#discover-text").textContent = `${p.rate} bps (${p.index + 1}/${p.total})${walking}; found so far: ${p.found.join(", ") || "none"}`;
+  $("#discover-text").textContent =
+    `${p.rate} bps (${p.index + 1}/${p.total})${walking}; found so far: ${p.found.join(", ") || "none"}`;
   for (const info of p.motors ?? []) if (!dashboard.motors.has(info.id)) addMotor(info); // cards appear as found
 }
 
@@ -250,11 +276,18 @@ function showProgress(p) {
 function setMotors(motors) {
   const wanted = new Set(motors.map((m) => m.id));
   for (const [id, motor] of dashboard.motors) {
-    if (!wanted.has(id)) { motor.plot.destroy(); motor.card.remove(); dashboard.motors.delete(id); }
+    if (!wanted.has(id)) {
+      motor.plot.destroy();
+      motor.card.remove();
+      dashboard.motors.delete(id);
+    }
   }
   for (const info of motors) {
     const motor = dashboard.motors.get(info.id);
-    if (motor) { motor.info = info; motor.subtitle.textContent = subtitle(info); } else addMotor(info);
+    if (motor) {
+      motor.info = info;
+      motor.subtitle.textContent = subtitle(info);
+    } else addMotor(info);
   }
   refreshMotorSelects();
   rebuildOverlay();
@@ -298,7 +331,12 @@ function makeCard(info) {
     paused: false,
     values: {
       position: field("position", "position", "°", "continuous: counts whole turns since the console started"),
-      device: field("device", "device", "°", `what the controller reports, within ±${DEVICE_LIMIT}°; moves are given in this frame (±${MOVE_LIMIT}°)`),
+      device: field(
+        "device",
+        "device",
+        "°",
+        `what the controller reports, within ±${DEVICE_LIMIT}°; moves are given in this frame (±${MOVE_LIMIT}°)`,
+      ),
       speed: field("speed", "speed", "RPM"),
       current: field("current", "current", "A"),
     },
@@ -307,57 +345,112 @@ function makeCard(info) {
     card,
   };
   const pause = build("button", { textContent: "Pause", className: "small" });
-  const csv = build("button", { textContent: "CSV", className: "small", title: "export the kept samples (last minute)" });
-  card.append(build("h2", {}, `ID ${id}`, motor.subtitle, motor.badge, build("span", { className: "spacer" }), pause, csv), readout);
+  const csv = build("button", {
+    textContent: "CSV",
+    className: "small",
+    title: "export the kept samples (last minute)",
+  });
+  card.append(
+    build("h2", {}, `ID ${id}`, motor.subtitle, motor.badge, build("span", { className: "spacer" }), pause, csv),
+    readout,
+  );
   const plotBox = build("div", { className: "plot" });
   card.append(plotBox);
-  motor.plot = livePlot(plotBox, [
-    { label: "position °", scale: "deg", stroke: COLOURS[0], width: 1.5 },
-    { label: "target °", scale: "deg", stroke: "#9ca3af", dash: [6, 4], width: 1 },
-    { label: "speed RPM", scale: "rpm", stroke: COLOURS[1], width: 1 },
-    { label: "current A", scale: "amp", stroke: COLOURS[2], width: 1 },
-  ], [
-    { scale: "deg", label: "°", size: 50 },
-    { scale: "rpm", side: 1, label: "RPM", grid: { show: false }, size: 50 },
-    { scale: "amp", side: 1, label: "A", grid: { show: false }, size: 40 },
-  ], motor);
+  motor.plot = livePlot(
+    plotBox,
+    [
+      { label: "position °", scale: "deg", stroke: COLOURS[0], width: 1.5 },
+      { label: "target °", scale: "deg", stroke: "#9ca3af", dash: [6, 4], width: 1 },
+      { label: "speed RPM", scale: "rpm", stroke: COLOURS[1], width: 1 },
+      { label: "current A", scale: "amp", stroke: COLOURS[2], width: 1 },
+    ],
+    [
+      { scale: "deg", label: "°", size: 50 },
+      { scale: "rpm", side: 1, label: "RPM", grid: { show: false }, size: 50 },
+      { scale: "amp", side: 1, label: "A", grid: { show: false }, size: 40 },
+    ],
+    motor,
+  );
   pause.onclick = () => setPaused(motor, !motor.paused, pause);
   motor.pauseButton = pause;
   csv.onclick = () => download(`nurimc-motor-${id}.csv`, seriesCsv(motor), "text/csv");
 
   const num = (value, title, attrs = {}) => build("input", { type: "number", value, step: "any", title, ...attrs });
-  const target = num(90, `degrees (device frame, ±${MOVE_LIMIT}°)`), moveRpm = num(60, "RPM (above 0)", { min: 0.1 }), runRpm = num(30, "RPM (negative: clockwise)");
+  const target = num(90, `degrees (device frame, ±${MOVE_LIMIT}°)`),
+    moveRpm = num(60, "RPM (above 0)", { min: 0.1 }),
+    runRpm = num(30, "RPM (negative: clockwise)");
   const by = build("input", { type: "checkbox", title: "move by this amount from where the motor is" });
   const button = (text, handler, title = "") => build("button", { textContent: text, onclick: handler, title });
   card.append(
-    build("div", { className: "controls" }, "to ", target, "° at ", moveRpm, " RPM ", build("label", {}, by, " by"),
-      button("Move", act(`ID ${id} move`, async () => {
-        const degrees = readNumber(target, "to", { min: -100000, max: 100000 });
-        const rpm = readNumber(moveRpm, "move RPM", { above: 0, max: 6553.3 });
-        const device = lastOf(motor.series.device);
-        const aim = by.checked && device != null ? device + degrees : degrees;
-        if (Math.abs(aim) > MOVE_LIMIT) {
-          throw new InputProblem(`the target ${aim.toFixed(2)}° is outside the device's range ±${MOVE_LIMIT}° (moves are in the device's frame; it is at ${device?.toFixed(2) ?? "?"}°): move back or use Set zero here first`);
-        }
-        await ask("move", { id, degrees, rpm, relative: by.checked });
-        const offset = lastOf(motor.series.position) - (device ?? 0);
-        motor.target = (by.checked ? (device ?? 0) + degrees : degrees) + (Number.isFinite(offset) ? offset : 0);
-        setControl(motor, "on");
-      }))),
-    build("div", { className: "controls" }, "run at ", runRpm, " RPM ",
-      button("Run", act(`ID ${id} run`, async () => {
-        const rpm = readNumber(runRpm, "run RPM", { min: -6553.3, max: 6553.3, nonzero: true });
-        await ask("run", { id, rpm, ramp: 0.5 });
-        motor.target = null;
-        setControl(motor, "on");
-      })),
-      button("Release", act(`ID ${id} release`, async () => { await ask("release", { id }); motor.target = null; setControl(motor, "off"); })),
-      button("Hold", act(`ID ${id} hold`, async () => { await ask("hold", { id }); motor.target = lastOf(motor.series.position); setControl(motor, "on"); })),
-      button("Set zero", act(`ID ${id} set zero`, async () => {
-        const answer = await ask("set_zero", { id });
-        motor.target = null;
-        say(`ID ${id}: the current position is now 0° (device reads ${answer.device_position.toFixed(2)}°)`);
-      }), "make the current position the device's zero (its ±655.35° range starts here)")),
+    build(
+      "div",
+      { className: "controls" },
+      "to ",
+      target,
+      "° at ",
+      moveRpm,
+      " RPM ",
+      build("label", {}, by, " by"),
+      button(
+        "Move",
+        act(`ID ${id} move`, async () => {
+          const degrees = readNumber(target, "to", { min: -100000, max: 100000 });
+          const rpm = readNumber(moveRpm, "move RPM", { above: 0, max: 6553.3 });
+          const device = lastOf(motor.series.device);
+          const aim = by.checked && device != null ? device + degrees : degrees;
+          if (Math.abs(aim) > MOVE_LIMIT) {
+            throw new InputProblem(
+              `the target ${aim.toFixed(2)}° is outside the device's range ±${MOVE_LIMIT}° (moves are in the device's frame; it is at ${device?.toFixed(2) ?? "?"}°): move back or use Set zero here first`,
+            );
+          }
+          await ask("move", { id, degrees, rpm, relative: by.checked });
+          const offset = lastOf(motor.series.position) - (device ?? 0);
+          motor.target = (by.checked ? (device ?? 0) + degrees : degrees) + (Number.isFinite(offset) ? offset : 0);
+          setControl(motor, "on");
+        }),
+      ),
+    ),
+    build(
+      "div",
+      { className: "controls" },
+      "run at ",
+      runRpm,
+      " RPM ",
+      button(
+        "Run",
+        act(`ID ${id} run`, async () => {
+          const rpm = readNumber(runRpm, "run RPM", { min: -6553.3, max: 6553.3, nonzero: true });
+          await ask("run", { id, rpm, ramp: 0.5 });
+          motor.target = null;
+          setControl(motor, "on");
+        }),
+      ),
+      button(
+        "Release",
+        act(`ID ${id} release`, async () => {
+          await ask("release", { id });
+          motor.target = null;
+          setControl(motor, "off");
+        }),
+      ),
+      button(
+        "Hold",
+        act(`ID ${id} hold`, async () => {
+          await ask("hold", { id });
+          motor.target = lastOf(motor.series.position);
+          setControl(motor, "on");
+        }),
+      ),
+      button(
+        "Set zero",
+        act(`ID ${id} set zero`, async () => {
+          const answer = await ask("set_zero", { id });
+          motor.target = null;
+          say(`ID ${id}: the current position is now 0° (device reads ${answer.device_position.toFixed(2)}°)`);
+        }),
+        "make the current position the device's zero (its ±655.35° range starts here)",
+      ),
+    ),
   );
   return motor;
 }
@@ -367,20 +460,37 @@ const lastOf = (array) => (array.length ? array[array.length - 1] : null);
 /** A uPlot whose x axis is seconds relative to now, that fills its box, shows values on hover,
  *  and holds a zoom (zooming pauses the live updates; double-click resets and resumes). */
 function livePlot(box, series, axes, owner) {
-  const plot = new uPlot({
-    width: Math.max(box.clientWidth, 280),
-    height: 220,
-    legend: { live: true },
-    cursor: { drag: { x: true, y: false } },
-    scales: { x: { time: false }, deg: {}, rpm: {}, amp: {} },
-    series: [{ label: "t (s)", value: (u, v) => (v == null ? "–" : `${v.toFixed(2)} s`) }, ...series],
-    axes: [{ label: "seconds (0 = now)" }, ...axes],
-    hooks: {
-      setSelect: [(u) => { if (u.select.width > 2) { owner.zoomed = true; setPaused(owner, true); } }],
+  const plot = new uPlot(
+    {
+      width: Math.max(box.clientWidth, 280),
+      height: 220,
+      legend: { live: true },
+      cursor: { drag: { x: true, y: false } },
+      scales: { x: { time: false }, deg: {}, rpm: {}, amp: {} },
+      series: [{ label: "t (s)", value: (u, v) => (v == null ? "–" : `${v.toFixed(2)} s`) }, ...series],
+      axes: [{ label: "seconds (0 = now)" }, ...axes],
+      hooks: {
+        setSelect: [
+          (u) => {
+            if (u.select.width > 2) {
+              owner.zoomed = true;
+              setPaused(owner, true);
+            }
+          },
+        ],
+      },
     },
-  }, [[], ...series.map(() => [])], box);
-  plot.over.addEventListener("dblclick", () => { owner.zoomed = false; setPaused(owner, false); });
-  new ResizeObserver(() => { const width = Math.max(box.clientWidth, 200); if (Math.abs(width - plot.width) > 2) plot.setSize({ width, height: 220 }); }).observe(box);
+    [[], ...series.map(() => [])],
+    box,
+  );
+  plot.over.addEventListener("dblclick", () => {
+    owner.zoomed = false;
+    setPaused(owner, false);
+  });
+  new ResizeObserver(() => {
+    const width = Math.max(box.clientWidth, 200);
+    if (Math.abs(width - plot.width) > 2) plot.setSize({ width, height: 220 });
+  }).observe(box);
   return plot;
 }
 
@@ -388,7 +498,10 @@ function setPaused(owner, paused) {
   owner.paused = paused;
   if (owner.pauseButton) owner.pauseButton.textContent = paused ? "Resume" : "Pause";
   if (owner.card) owner.card.dataset.paused = paused ? "yes" : "no";
-  if (!paused) { owner.zoomed = false; owner.dirty = true; }
+  if (!paused) {
+    owner.zoomed = false;
+    owner.dirty = true;
+  }
 }
 
 function setControl(motor, control) {
@@ -403,7 +516,12 @@ function addSamples(rows) {
     const motor = dashboard.motors.get(id);
     if (!motor) continue;
     const s = motor.series;
-    s.t.push(t); s.position.push(position); s.speed.push(speed); s.current.push(current); s.device.push(device ?? position); s.target.push(motor.target);
+    s.t.push(t);
+    s.position.push(position);
+    s.speed.push(speed);
+    s.current.push(current);
+    s.device.push(device ?? position);
+    s.target.push(motor.target);
     let drop = 0;
     while (drop < s.t.length && s.t[drop] < t - KEEP_S) drop++;
     if (drop) for (const key of Object.keys(s)) s[key].splice(0, drop);
@@ -435,7 +553,13 @@ function redraw() {
     if (motor.paused) continue;
     const now = s.t[last];
     const from = windowOf(s, now);
-    motor.plot.setData([s.t.slice(from).map((t) => t - now), s.position.slice(from), s.target.slice(from), s.speed.slice(from), s.current.slice(from)]);
+    motor.plot.setData([
+      s.t.slice(from).map((t) => t - now),
+      s.position.slice(from),
+      s.target.slice(from),
+      s.speed.slice(from),
+      s.current.slice(from),
+    ]);
   }
   if (overlay.dirty && !overlay.paused && overlay.plot && !$("#view-plot").classList.contains("hidden")) drawOverlay();
   requestAnimationFrame(redraw);
@@ -445,7 +569,8 @@ requestAnimationFrame(redraw);
 function seriesCsv(motor) {
   const s = motor.series;
   const lines = ["t_s,position_deg,device_position_deg,speed_rpm,current_a,target_deg"];
-  for (let i = 0; i < s.t.length; i++) lines.push([s.t[i], s.position[i], s.device[i], s.speed[i], s.current[i], s.target[i] ?? ""].join(","));
+  for (let i = 0; i < s.t.length; i++)
+    lines.push([s.t[i], s.position[i], s.device[i], s.speed[i], s.current[i], s.target[i] ?? ""].join(","));
   return lines.join("\n") + "\n";
 }
 
@@ -460,8 +585,17 @@ function rebuildOverlay() {
   const quantity = $("#overlay-quantity").value;
   const box = $("#overlay-plot");
   box.replaceChildren();
-  overlay.plot = livePlot(box, overlay.ids.map((id, i) => ({ label: `ID ${id} ${OVERLAY_UNITS[quantity]}`, scale: "deg", stroke: COLOURS[i % COLOURS.length], width: 1.5 })),
-    [{ scale: "deg", label: OVERLAY_UNITS[quantity], size: 50 }], overlay);
+  overlay.plot = livePlot(
+    box,
+    overlay.ids.map((id, i) => ({
+      label: `ID ${id} ${OVERLAY_UNITS[quantity]}`,
+      scale: "deg",
+      stroke: COLOURS[i % COLOURS.length],
+      width: 1.5,
+    })),
+    [{ scale: "deg", label: OVERLAY_UNITS[quantity], size: 50 }],
+    overlay,
+  );
   overlay.dirty = true;
 }
 function drawOverlay() {
@@ -481,12 +615,16 @@ function drawOverlay() {
   overlay.plot.setData(data);
 }
 $("#overlay-quantity").onchange = rebuildOverlay;
-$("#overlay-pause").onclick = () => { setPaused(overlay, !overlay.paused); $("#overlay-pause").textContent = overlay.paused ? "Resume" : "Pause"; };
+$("#overlay-pause").onclick = () => {
+  setPaused(overlay, !overlay.paused);
+  $("#overlay-pause").textContent = overlay.paused ? "Resume" : "Pause";
+};
 $("#overlay-csv").onclick = () => {
   const lines = ["motor_id,t_s,position_deg,device_position_deg,speed_rpm,current_a"];
   for (const [id, motor] of dashboard.motors) {
     const s = motor.series;
-    for (let i = 0; i < s.t.length; i++) lines.push([id, s.t[i], s.position[i], s.device[i], s.speed[i], s.current[i]].join(","));
+    for (let i = 0; i < s.t.length; i++)
+      lines.push([id, s.t[i], s.position[i], s.device[i], s.speed[i], s.current[i]].join(","));
   }
   download("nurimc-motors.csv", lines.join("\n") + "\n", "text/csv");
 };
@@ -513,7 +651,10 @@ async function emergencyStop() {
 }
 $("#estop").onclick = emergencyStop;
 document.addEventListener("keydown", (event) => {
-  if (event.key === "Escape") { event.preventDefault(); emergencyStop(); }
+  if (event.key === "Escape") {
+    event.preventDefault();
+    emergencyStop();
+  }
 });
 
 function showEstop(m) {
@@ -522,12 +663,18 @@ function showEstop(m) {
   const entries = Object.entries(m.control);
   for (const [id, control] of entries) {
     const motor = dashboard.motors.get(Number(id));
-    if (motor) { setControl(motor, control === "off" ? "off" : "unknown"); motor.target = null; }
+    if (motor) {
+      setControl(motor, control === "off" ? "off" : "unknown");
+      motor.target = null;
+    }
   }
   const bad = entries.filter(([, control]) => control !== "off");
-  say(bad.length
-    ? `EMERGENCY STOP sent at ${m.rates.join(", ")} bps, but not confirmed for ${bad.map(([id, c]) => `ID ${id} (${c})`).join(", ")}: cut the power`
-    : `EMERGENCY STOP: control off sent at ${m.rates.join(", ")} bps; ${entries.length} motor(s) confirmed released. Nothing moves until you give a new command.`, bad.length ? "error" : "info");
+  say(
+    bad.length
+      ? `EMERGENCY STOP sent at ${m.rates.join(", ")} bps, but not confirmed for ${bad.map(([id, c]) => `ID ${id} (${c})`).join(", ")}: cut the power`
+      : `EMERGENCY STOP: control off sent at ${m.rates.join(", ")} bps; ${entries.length} motor(s) confirmed released. Nothing moves until you give a new command.`,
+    bad.length ? "error" : "info",
+  );
   $("#estop").dataset.lastResult = JSON.stringify(m.control);
 }
 
@@ -541,12 +688,21 @@ function fillSettingsTable() {
       : build("input", { type: "number", min: s.min, max: s.max, step: s.step, title: s.range });
     input.disabled = !s.writable;
     input.ariaLabel = s.name;
-    input.oninput = () => { input.dataset.edited = "yes"; }; // a read-back must not overwrite what the user types
+    input.oninput = () => {
+      input.dataset.edited = "yes";
+    }; // a read-back must not overwrite what the user types
     const result = build("td", { className: "result" });
     const write = build("button", { textContent: "Write", disabled: !s.writable });
-    const row = build("tr", { id: `setting-${s.name}` },
-      build("td", { textContent: s.name, title: s.doc }), build("td", { className: "value" }), build("td", {}, input),
-      build("td", { textContent: `${s.range}` }), build("td", {}, write), result);
+    const row = build(
+      "tr",
+      { id: `setting-${s.name}` },
+      build("td", { textContent: s.name, title: s.doc }),
+      build("td", { className: "value" }),
+      build("td", {}, input),
+      build("td", { textContent: `${s.range}` }),
+      build("td", {}, write),
+      result,
+    );
     write.onclick = async () => {
       const id = Number($("#settings-motor").value);
       result.className = "result";
@@ -598,7 +754,11 @@ let stepPlot = null;
 const STEP_KEEP = 6; // runs overlaid for comparison
 $("#step-run").onclick = act("step", async () => {
   const id = Number($("#step-motor").value);
-  const amplitude = readNumber($("#step-amplitude"), "step", { min: -2 * MOVE_LIMIT, max: 2 * MOVE_LIMIT, nonzero: true });
+  const amplitude = readNumber($("#step-amplitude"), "step", {
+    min: -2 * MOVE_LIMIT,
+    max: 2 * MOVE_LIMIT,
+    nonzero: true,
+  });
   const rpm = readNumber($("#step-rpm"), "step RPM", { above: 0, max: 6553.3 });
   const duration = readNumber($("#step-duration"), "record", { min: 0.2, max: 10 });
   $("#step-run").disabled = true;
@@ -612,7 +772,8 @@ $("#step-run").onclick = act("step", async () => {
     if (dashboard.stepRuns.length > STEP_KEEP) dashboard.stepRuns.shift();
     drawSteps();
     const rise = r.rise_time == null ? "not reached" : `${(r.rise_time * 1000).toFixed(0)} ms`;
-    $("#step-figures").textContent = `rise time (10–90 %): ${rise} · overshoot: ${r.overshoot.toFixed(1)} % · final error: ${r.final_error} ° · ${r.settled ? "settled" : "not settled"}`;
+    $("#step-figures").textContent =
+      `rise time (10–90 %): ${rise} · overshoot: ${r.overshoot.toFixed(1)} % · final error: ${r.final_error} ° · ${r.settled ? "settled" : "not settled"}`;
   } catch (error) {
     $("#step-figures").textContent = "";
     throw error;
@@ -625,23 +786,56 @@ function drawSteps() {
   stepPlot?.destroy();
   stepPlot = null;
   const runs = dashboard.stepRuns;
-  if (!runs.length) { $("#step-plot").replaceChildren(); return; }
+  if (!runs.length) {
+    $("#step-plot").replaceChildren();
+    return;
+  }
   // each run relative to its own start, so runs from different positions overlay
   const times = [...new Set(runs.flatMap((r) => r.times))].sort((a, b) => a - b);
-  const lookup = (r) => { const m = new Map(r.times.map((t, i) => [t, r.positions[i] - r.start])); return times.map((t) => m.get(t) ?? null); };
+  const lookup = (r) => {
+    const m = new Map(r.times.map((t, i) => [t, r.positions[i] - r.start]));
+    return times.map((t) => m.get(t) ?? null);
+  };
   const last = runs[runs.length - 1];
   const data = [times, times.map(() => last.target - last.start), ...runs.map(lookup)];
-  const series = [{ label: "t (s)" }, { label: "target (Δ°)", stroke: "#9ca3af", dash: [6, 4] },
-    ...runs.map((r, i) => ({ label: r.label, stroke: COLOURS[i % COLOURS.length], width: i === runs.length - 1 ? 2.5 : 1, spanGaps: true }))];
+  const series = [
+    { label: "t (s)" },
+    { label: "target (Δ°)", stroke: "#9ca3af", dash: [6, 4] },
+    ...runs.map((r, i) => ({
+      label: r.label,
+      stroke: COLOURS[i % COLOURS.length],
+      width: i === runs.length - 1 ? 2.5 : 1,
+      spanGaps: true,
+    })),
+  ];
   const box = $("#step-plot");
-  stepPlot = new uPlot({ width: Math.max(box.clientWidth, 280), height: 320, legend: { live: true }, scales: { x: { time: false } }, series,
-    axes: [{ label: "seconds since the step" }, { label: "° from start", size: 50 }] }, data, box);
+  stepPlot = new uPlot(
+    {
+      width: Math.max(box.clientWidth, 280),
+      height: 320,
+      legend: { live: true },
+      scales: { x: { time: false } },
+      series,
+      axes: [{ label: "seconds since the step" }, { label: "° from start", size: 50 }],
+    },
+    data,
+    box,
+  );
 }
-new ResizeObserver(() => { if (stepPlot) stepPlot.setSize({ width: Math.max($("#step-plot").clientWidth, 200), height: 320 }); }).observe($("#step-plot"));
-$("#step-clear").onclick = () => { dashboard.stepRuns = []; drawSteps(); };
+new ResizeObserver(() => {
+  if (stepPlot) stepPlot.setSize({ width: Math.max($("#step-plot").clientWidth, 200), height: 320 });
+}).observe($("#step-plot"));
+$("#step-clear").onclick = () => {
+  dashboard.stepRuns = [];
+  drawSteps();
+};
 $("#step-csv").onclick = () => {
   const lines = ["run,motor_id,t_s,position_deg,start_deg,target_deg"];
-  dashboard.stepRuns.forEach((r, k) => r.times.forEach((t, i) => lines.push([k + 1, r.id, t, r.positions[i], r.start, r.target].join(","))));
+  dashboard.stepRuns.forEach((r, k) => {
+    r.times.forEach((t, i) => {
+      lines.push([k + 1, r.id, t, r.positions[i], r.start, r.target].join(","));
+    });
+  });
   download("nurimc-steps.csv", lines.join("\n") + "\n", "text/csv");
 };
 
@@ -670,9 +864,17 @@ $("#gains-write").onclick = act("gains", async () => {
 
 // ---- sequences ----------------------------------------------------------------------------
 const STEP_FIELDS = {
-  move: [["id", "ID", 1], ["degrees", "to °", 90], ["rpm", "RPM", 60]],
+  move: [
+    ["id", "ID", 1],
+    ["degrees", "to °", 90],
+    ["rpm", "RPM", 60],
+  ],
   wait: [["seconds", "seconds", 1]],
-  set: [["id", "ID", 1], ["name", "setting", "position-kp"], ["value", "value", 50]],
+  set: [
+    ["id", "ID", 1],
+    ["name", "setting", "position-kp"],
+    ["value", "value", 50],
+  ],
   release: [["id", "ID", 1]],
 };
 let sequenceRun = null;
@@ -688,15 +890,28 @@ function renderSequence() {
   const items = dashboard.sequence.map((step, index) => {
     const inputs = STEP_FIELDS[step.kind].map(([key, label]) => {
       const isText = key === "name" || (key === "value" && typeof step.values[key] === "string");
-      const input = build("input", { type: isText ? "text" : "number", step: "any", value: step.values[key] ?? "", ariaLabel: label });
+      const input = build("input", {
+        type: isText ? "text" : "number",
+        step: "any",
+        value: step.values[key] ?? "",
+        ariaLabel: label,
+      });
       input.dataset.key = key;
-      input.oninput = () => { step.values[key] = input.value; };
+      input.oninput = () => {
+        step.values[key] = input.value;
+      };
       return build("label", {}, `${label} `, input);
     });
     const remove = build("button", { textContent: "✕", title: "remove this step", className: "small" });
-    remove.onclick = () => { dashboard.sequence.splice(index, 1); renderSequence(); };
+    remove.onclick = () => {
+      dashboard.sequence.splice(index, 1);
+      renderSequence();
+    };
     const up = build("button", { textContent: "↑", title: "move up", className: "small", disabled: index === 0 });
-    up.onclick = () => { dashboard.sequence.splice(index - 1, 0, dashboard.sequence.splice(index, 1)[0]); renderSequence(); };
+    up.onclick = () => {
+      dashboard.sequence.splice(index - 1, 0, dashboard.sequence.splice(index, 1)[0]);
+      renderSequence();
+    };
     return build("li", { className: "seq-step" }, build("b", { textContent: step.kind }), ...inputs, up, remove);
   });
   $("#seq-list").replaceChildren(...items);
@@ -708,15 +923,28 @@ function checkedStep(step, index) {
   const where = `step ${index + 1} (${step.kind})`;
   const n = (key, opts) => readNumber(field(key), `${where} ${key}`, opts);
   switch (step.kind) {
-    case "move": return { op: "move", args: { id: n("id", { min: 0, max: 254, integer: true }), degrees: n("degrees", { min: -MOVE_LIMIT, max: MOVE_LIMIT }), rpm: n("rpm", { above: 0, max: 6553.3 }) } };
-    case "wait": return { wait: n("seconds", { min: 0, max: 3600 }) };
-    case "release": return { op: "release", args: { id: n("id", { min: 0, max: 254, integer: true }) } };
+    case "move":
+      return {
+        op: "move",
+        args: {
+          id: n("id", { min: 0, max: 254, integer: true }),
+          degrees: n("degrees", { min: -MOVE_LIMIT, max: MOVE_LIMIT }),
+          rpm: n("rpm", { above: 0, max: 6553.3 }),
+        },
+      };
+    case "wait":
+      return { wait: n("seconds", { min: 0, max: 3600 }) };
+    case "release":
+      return { op: "release", args: { id: n("id", { min: 0, max: 254, integer: true }) } };
     case "set": {
       const name = field("name").value.trim();
       const raw = field("value").value.trim();
       if (!name || !raw) throw new InputProblem(`${where}: give a setting name and a value`);
       const numeric = /^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$/.test(raw);
-      return { op: "set", args: { id: n("id", { min: 0, max: 254, integer: true }), name, value: numeric ? Number(raw) : raw } };
+      return {
+        op: "set",
+        args: { id: n("id", { min: 0, max: 254, integer: true }), name, value: numeric ? Number(raw) : raw },
+      };
     }
   }
   throw new InputProblem(`${where}: unknown kind`);
@@ -741,7 +969,13 @@ $("#seq-run").onclick = act("sequence", async () => {
       if (run.stopped || dashboard.stops !== run.stops) break;
       status.textContent = `running step ${index + 1} of ${steps.length}`;
       if (step.wait != null) {
-        await new Promise((resolve) => { const timer = setTimeout(resolve, step.wait * 1000); run.wake = () => { clearTimeout(timer); resolve(); }; });
+        await new Promise((resolve) => {
+          const timer = setTimeout(resolve, step.wait * 1000);
+          run.wake = () => {
+            clearTimeout(timer);
+            resolve();
+          };
+        });
       } else {
         await ask(step.op, step.args);
       }
@@ -762,17 +996,31 @@ $("#seq-add-move").onclick = () => addSequenceStep("move", { id: Number($("#setu
 $("#seq-add-wait").onclick = () => addSequenceStep("wait");
 $("#seq-add-set").onclick = () => addSequenceStep("set", { id: Number($("#setup-motor").value) || 1 });
 $("#seq-add-release").onclick = () => addSequenceStep("release", { id: Number($("#setup-motor").value) || 1 });
-$("#seq-save").onclick = () => download("nurimc-sequence.json", JSON.stringify({ format: "nurimc-sequence/1", steps: dashboard.sequence.map((s) => ({ kind: s.kind, ...s.values })) }, null, 2), "application/json");
+$("#seq-save").onclick = () =>
+  download(
+    "nurimc-sequence.json",
+    JSON.stringify(
+      { format: "nurimc-sequence/1", steps: dashboard.sequence.map((s) => ({ kind: s.kind, ...s.values })) },
+      null,
+      2,
+    ),
+    "application/json",
+  );
 $("#seq-load").onchange = act("load sequence", async (event) => {
   const file = event.target.files[0];
   if (!file) return;
   let document_;
-  try { document_ = JSON.parse(await file.text()); } catch (error) { throw new InputProblem(`${file.name} is not JSON (${error.message})`); }
+  try {
+    document_ = JSON.parse(await file.text());
+  } catch (error) {
+    throw new InputProblem(`${file.name} is not JSON (${error.message})`);
+  }
   loadSequence(document_);
   event.target.value = "";
 });
 function loadSequence(document_) {
-  if (document_?.format !== "nurimc-sequence/1" || !Array.isArray(document_.steps)) throw new InputProblem("not a nurimc sequence (format nurimc-sequence/1)");
+  if (document_?.format !== "nurimc-sequence/1" || !Array.isArray(document_.steps))
+    throw new InputProblem("not a nurimc sequence (format nurimc-sequence/1)");
   const steps = document_.steps.map((s, i) => {
     if (!STEP_FIELDS[s?.kind]) throw new InputProblem(`step ${i + 1}: unknown kind ${JSON.stringify(s?.kind)}`);
     return s;
@@ -813,7 +1061,9 @@ $("#factory-reset").onclick = act("factory reset", async () => {
 });
 async function loadPorts() {
   const answer = await ask("ports");
-  $("#bus-port").replaceChildren(...answer.ports.map((p) => build("option", { value: p, textContent: p, selected: p === answer.current })));
+  $("#bus-port").replaceChildren(
+    ...answer.ports.map((p) => build("option", { value: p, textContent: p, selected: p === answer.current })),
+  );
   $("#bus-baud").value = String(answer.baudrate);
   $("#bus-text").textContent = `open: ${answer.current} at ${answer.baudrate} bps`;
 }
@@ -842,7 +1092,9 @@ $("#restore-file").onchange = act("restore", async (event) => {
     throw new InputProblem(`${file.name} is not JSON (${error.message})`);
   }
   const result = await ask("restore", { document: document_ });
-  $("#backup-text").textContent = result.changed.length ? `restored (each verified):\n${result.changed.join("\n")}` : "nothing to change: every setting already matches";
+  $("#backup-text").textContent = result.changed.length
+    ? `restored (each verified):\n${result.changed.join("\n")}`
+    : "nothing to change: every setting already matches";
 });
 
 function download(name, text, type) {
@@ -854,10 +1106,20 @@ function download(name, text, type) {
 // ---- raw frames ---------------------------------------------------------------------------
 $("#raw-on").onchange = act("raw frames", async (event) => {
   const result = await ask("frames", { on: event.target.checked });
-  if (event.target.checked) { dashboard.frames = result.recent; renderFrames(); }
+  if (event.target.checked) {
+    dashboard.frames = result.recent;
+    renderFrames();
+  }
 });
 $("#raw-filter").oninput = () => renderFrames();
-$("#raw-export").onclick = () => download("nurimc-frames.jsonl", filteredFrames().map((f) => JSON.stringify(f)).join("\n") + "\n", "application/x-ndjson");
+$("#raw-export").onclick = () =>
+  download(
+    "nurimc-frames.jsonl",
+    filteredFrames()
+      .map((f) => JSON.stringify(f))
+      .join("\n") + "\n",
+    "application/x-ndjson",
+  );
 
 function addFrames(frames) {
   dashboard.frames.push(...frames);
@@ -865,22 +1127,44 @@ function addFrames(frames) {
   rawDirty = true;
 }
 let rawDirty = false;
-setInterval(() => { if (rawDirty && !$("#raw-pause").checked) { rawDirty = false; renderFrames(); } }, 250);
+setInterval(() => {
+  if (rawDirty && !$("#raw-pause").checked) {
+    rawDirty = false;
+    renderFrames();
+  }
+}, 250);
 
 function filteredFrames() {
-  const terms = $("#raw-filter").value.toLowerCase().split(/[\s,]+/).filter(Boolean);
-  return dashboard.frames.filter((f) => terms.every((term) => {
-    if (term.startsWith("id=")) return String(f.id) === term.slice(3);
-    return f.dir === term || (f.name ?? "").includes(term) || f.hex.includes(term);
-  }));
+  const terms = $("#raw-filter")
+    .value.toLowerCase()
+    .split(/[\s,]+/)
+    .filter(Boolean);
+  return dashboard.frames.filter((f) =>
+    terms.every((term) => {
+      if (term.startsWith("id=")) return String(f.id) === term.slice(3);
+      return f.dir === term || (f.name ?? "").includes(term) || f.hex.includes(term);
+    }),
+  );
 }
 
 function renderFrames() {
   const frames = filteredFrames();
   $("#raw-count").textContent = `${frames.length} of ${dashboard.frames.length} frames`;
-  const rows = frames.slice(-RAW_ROWS).reverse().map((f) => build("tr", {},
-    build("td", { textContent: f.t.toFixed(4) }), build("td", { textContent: f.dir }), build("td", { textContent: f.id ?? "" }),
-    build("td", { textContent: f.name }), build("td", { textContent: JSON.stringify(f.fields) }), build("td", { textContent: f.hex })));
+  const rows = frames
+    .slice(-RAW_ROWS)
+    .reverse()
+    .map((f) =>
+      build(
+        "tr",
+        {},
+        build("td", { textContent: f.t.toFixed(4) }),
+        build("td", { textContent: f.dir }),
+        build("td", { textContent: f.id ?? "" }),
+        build("td", { textContent: f.name }),
+        build("td", { textContent: JSON.stringify(f.fields) }),
+        build("td", { textContent: f.hex }),
+      ),
+    );
   $("#raw-table tbody").replaceChildren(...rows);
 }
 
@@ -888,12 +1172,15 @@ function renderFrames() {
 for (const button of document.querySelectorAll("nav button")) {
   button.onclick = () => {
     for (const other of document.querySelectorAll("nav button")) other.classList.toggle("active", other === button);
-    for (const view of document.querySelectorAll(".view")) view.classList.toggle("hidden", view.id !== `view-${button.dataset.view}`);
+    for (const view of document.querySelectorAll(".view"))
+      view.classList.toggle("hidden", view.id !== `view-${button.dataset.view}`);
     const view = button.dataset.view;
     if (!dashboard.connected) return;
     if (view === "settings" && dashboard.motors.size) readSettings().catch(() => {});
     if (view === "step" && dashboard.motors.size) prefillGains().catch(() => {});
-    if (view === "plot") { overlay.dirty = true; }
+    if (view === "plot") {
+      overlay.dirty = true;
+    }
     if (view === "setup" && dashboard.mode === "server") loadPorts().catch(() => {});
   };
 }

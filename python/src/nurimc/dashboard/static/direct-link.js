@@ -50,8 +50,16 @@ export class DirectLink {
       case "discover": {
         const found = [];
         for (let id = 0; id <= 254; id++) {
-          if (id % 8 === 0) this.emit("progress", { rate: this.baudRate, index: 0, total: 1, walking_id: id, found: found.map((m) => m.id) });
-          if (await this.motor(id).ping()) found.push({ id, baudrate: this.baudRate, firmware: await this.motor(id).readFirmware() });
+          if (id % 8 === 0)
+            this.emit("progress", {
+              rate: this.baudRate,
+              index: 0,
+              total: 1,
+              walking_id: id,
+              found: found.map((m) => m.id),
+            });
+          if (await this.motor(id).ping())
+            found.push({ id, baudrate: this.baudRate, firmware: await this.motor(id).readFirmware() });
         }
         return { motors: found };
       }
@@ -61,7 +69,9 @@ export class DirectLink {
       case "move": {
         if (args.relative) throw new Error("move by is not available in direct mode; give a target position");
         const [degrees, direction] = signed(args.degrees);
-        await (args.rpm != null ? this.motor(args.id).moveTo(degrees, args.rpm, direction) : this.motor(args.id).moveIn(degrees, args.seconds, direction));
+        await (args.rpm != null
+          ? this.motor(args.id).moveTo(degrees, args.rpm, direction)
+          : this.motor(args.id).moveIn(degrees, args.seconds, direction));
         return { id: args.id };
       }
       case "run": {
@@ -78,7 +88,10 @@ export class DirectLink {
       case "estop": {
         await this.bus.send(this.lib.make("set_control", 255, { control: 1 }));
         const control = {};
-        for (const id of this.motors.keys()) control[id] = await this.motor(id).readSetting("control").catch((e) => `unknown: ${e.message}`);
+        for (const id of this.motors.keys())
+          control[id] = await this.motor(id)
+            .readSetting("control")
+            .catch((e) => `unknown: ${e.message}`);
         this.emit("estop", { rates: [this.baudRate], control });
         return { rates: [this.baudRate], control };
       }

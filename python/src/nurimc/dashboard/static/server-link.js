@@ -38,7 +38,8 @@ export class ServerLink {
     ws.onclose = (event) => {
       const was = this.connected;
       this.connected = false;
-      for (const { reject } of this.pending.values()) reject(new Error("the connection to the server was lost; the command may not have run"));
+      for (const { reject } of this.pending.values())
+        reject(new Error("the connection to the server was lost; the command may not have run"));
       this.pending.clear();
       this.emit("closed", { code: event.code, reason: event.reason, was });
       this.scheduleRetry();
