@@ -23,7 +23,9 @@ sys.path.insert(0, {src!r})
 import nurimc, nurimc.protocol, nurimc.conformance
 from nurimc.protocol import decode
 assert decode(bytes.fromhex("fffe00025da0")).name == "request_ping"
-outside = sorted({{m.split(".")[0] for m in sys.modules}} - set(sys.stdlib_module_names) - {{"nurimc", "__main__"}})
+# sitecustomize/usercustomize are the interpreter installation's own start-up hooks (Debian ships one)
+ours = {{"nurimc", "__main__", "sitecustomize", "usercustomize"}}
+outside = sorted({{m.split(".")[0] for m in sys.modules}} - set(sys.stdlib_module_names) - ours)
 print(" ".join(outside))
 """
 
