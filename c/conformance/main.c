@@ -350,7 +350,8 @@ static void op_to_wire(output *out, const json_doc *doc) {
         put_error(out, "unknown_quantity", NULL);
         return;
     }
-    if (node >= 0 && doc->nodes[node].type == JSON_STRING && q.setting != NULL && q.setting->input == NURIMC_INPUT_CHOICE) {
+    if (node >= 0 && doc->nodes[node].type == JSON_STRING && q.setting != NULL &&
+        q.setting->input == NURIMC_INPUT_CHOICE) {
         for (i = 0; i < sizeof q.setting->value_names / sizeof q.setting->value_names[0]; i++) {
             if (q.setting->value_names[i] != NULL && json_string_is(doc, node, q.setting->value_names[i])) {
                 snprintf(text, sizeof text, "{\"wire\":%u}", i);

@@ -57,7 +57,8 @@ static int units_to_wire(double value, unsigned long num, unsigned long den, lon
 }
 
 /* The physical value of `raw` steps (negated when `negative`) of num/den, exact, as JSON number text in `out`. */
-static void units_from_wire(long raw, unsigned long num, unsigned long den, int negative, char *out, unsigned long size) {
+static void units_from_wire(long raw, unsigned long num, unsigned long den, int negative, char *out,
+                            unsigned long size) {
     unsigned long magnitude = (unsigned long)(raw < 0 ? -raw : raw) * num;
     int decimals = units_decimal_exponent(den) % 10; /* steps of 0.1, 0.01 (never below 1e-9) */
     const char *sign = (negative != (raw < 0)) ? "-" : "";

@@ -6,7 +6,7 @@ import { DecodeError, EncodeError } from "./errors.js";
 import { fromHex } from "./frame.js";
 import { BadRequest, JsonFloat, type JsonValue, MAX_LINE_BYTES, readRequest } from "./jsonline.js";
 import { StreamParser } from "./parser.js";
-import { SETTINGS, settingFromWire, settingToWire } from "./settings.js";
+import { SETTINGS, setting, settingFromWire, settingToWire } from "./settings.js";
 import { arrivalToWire, fromWire, positionToWire, signedFromWire, speedToWire, UnitRangeError } from "./units.js";
 
 type Reply = Record<string, unknown>;
@@ -42,7 +42,6 @@ function parse(request: Record<string, unknown>): Reply {
 /** The units ops' quantities: the motion ones, then every setting of spec/settings.json by its exact name. */
 const MOTION = ["degrees", "rpm", "seconds"];
 const QUANTITIES = new Set([...MOTION, ...SETTINGS.map((s) => s.name)]);
-const settingOf = (name: string) => SETTINGS.find((s) => s.name === name);
 
 class UnitError extends Error {
   constructor(readonly kind: "unknown_quantity" | "type" | "range") {
@@ -72,14 +71,14 @@ function quantityOf(req: Record<string, unknown>): string {
 function toWireOp(req: Record<string, unknown>): Reply {
   const quantity = quantityOf(req);
   const value = own(req, "value");
-  const spec = settingOf(quantity);
+  const spec = MOTION.includes(quantity) ? undefined : setting(quantity);
   const number = numberOf(value);
   if (number === null && !(typeof value === "string" && spec?.input === "choice")) throw new UnitError("type");
   try {
     if (quantity === "degrees") return { ...positionToWire(number as number) };
     if (quantity === "rpm") return { ...speedToWire(number as number) };
     if (quantity === "seconds") return { wire: arrivalToWire(number as number) };
-    return { wire: settingToWire(spec!, number ?? (value as string)) };
+    return { wire: settingToWire(setting(quantity), number ?? (value as string)) };
   } catch (err) {
     if (err instanceof UnitRangeError) throw new UnitError("range");
     throw err;
@@ -94,7 +93,7 @@ function fromWireOp(req: Record<string, unknown>): Reply {
     return { value: signedFromWire(direction, wire, quantity === "degrees" ? 0.01 : 0.1) };
   }
   if (quantity === "seconds") return { value: fromWire(wire, 0.1) };
-  return { value: settingFromWire(settingOf(quantity)!, wire) };
+  return { value: settingFromWire(setting(quantity), wire) };
 }
 
 export function answer(request: unknown): Reply {

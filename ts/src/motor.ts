@@ -15,7 +15,7 @@
  */
 import type { Bus } from "./bus/client.js";
 import { VerifyError } from "./bus/errors.js";
-import { fieldsOf, make, type Message, type MessageOf } from "./codec.js";
+import { fieldsOf, type Message, type MessageOf, make } from "./codec.js";
 import { LIMITS } from "./generated/host.js";
 import { SETTINGS, type SettingSpec, type SettingValue, setting, settingFromWire, settingToWire } from "./settings.js";
 import { arrivalToWire, fromWire, positionToWire, signedFromWire, speedToWire } from "./units.js";
@@ -240,7 +240,8 @@ export class Motor {
   }
 
   private remember(spec: SettingSpec, raw: number): void {
-    if (spec.name === "response-time") this.bus.responseTimesUs.set(this.id, raw * 100); // tighter deadlines
+    if (spec.name === "response-time")
+      this.bus.responseTimesUs.set(this.id, raw * 100); // tighter deadlines
     else if (spec.name === "position-mode") this.relative = raw === 1;
     else if (spec.name === "control") this.released = raw === 1;
   }
@@ -259,4 +260,3 @@ export class Motor {
     }
   }
 }
-

@@ -81,7 +81,9 @@ export class UnitRangeError extends RangeError {
     /** e.g. "-6553.3..-0.1 or 0.1..6553.3 rpm" */
     readonly allowed: string,
   ) {
-    super(`${quantity} = ${typeof value === "string" ? JSON.stringify(value) : String(value)} is out of range; allowed: ${allowed}`);
+    super(
+      `${quantity} = ${typeof value === "string" ? JSON.stringify(value) : String(value)} is out of range; allowed: ${allowed}`,
+    );
   }
 }
 

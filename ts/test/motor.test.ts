@@ -48,7 +48,12 @@ function controller(options: { deaf?: boolean; relative?: boolean; released?: bo
         return encode(make("position_gains", 2, state.gains));
       case "request_position":
         return encode(
-          make("position_feedback", 2, { direction: state.direction, position: state.position, speed: 1234, current: 15 }),
+          make("position_feedback", 2, {
+            direction: state.direction,
+            position: state.position,
+            speed: 1234,
+            current: 15,
+          }),
         );
       case "request_speed":
         return encode(make("speed_feedback", 2, { direction: 1, speed: 255, position: 1800, current: 3 }));
@@ -81,7 +86,9 @@ describe("Motor: motion in signed units, as the Python library", () => {
   it("refuses values outside the limits before sending anything", async () => {
     const { motor, sent } = controller();
     await expect(motor.moveTo(655.335, { rpm: 100 })).rejects.toThrow(UnitRangeError);
-    await expect(motor.moveTo(-700, { rpm: 100 })).rejects.toThrow(/degrees = -700 is out of range; allowed: -655\.33\.\.655\.33 deg/);
+    await expect(motor.moveTo(-700, { rpm: 100 })).rejects.toThrow(
+      /degrees = -700 is out of range; allowed: -655\.33\.\.655\.33 deg/,
+    );
     await expect(motor.run(0)).rejects.toThrow(/rpm = 0 is out of range/);
     await expect(motor.run(10, 30)).rejects.toThrow(/seconds = 30 is out of range; allowed: 0\.1\.\.25\.5 s/);
     await expect(motor.moveTo(10, {} as { rpm: number })).rejects.toThrow(/exactly one of/);
@@ -177,7 +184,9 @@ describe("Motor: settings by name, in physical units", () => {
   it("refuses values the setting cannot take, before sending anything", async () => {
     const { motor, sent } = controller();
     await expect(motor.set("control", "sideways")).rejects.toThrow(/allowed: on or off/);
-    await expect(motor.set("position-kp", 2.5)).rejects.toThrow(/position-kp = 2\.5 is out of range; allowed: 1\.\.254/);
+    await expect(motor.set("position-kp", 2.5)).rejects.toThrow(
+      /position-kp = 2\.5 is out of range; allowed: 1\.\.254/,
+    );
     await expect(motor.set("ratio", 0.04)).rejects.toThrow(UnitRangeError);
     await expect(motor.set("firmware", 3)).rejects.toThrow(/read-only/);
     await expect(motor.set("speed", 3)).rejects.toThrow(/unknown setting "speed"; settings: position-kp/);

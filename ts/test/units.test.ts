@@ -25,7 +25,10 @@ interface Vector {
 }
 
 /** spec/vectors/units.jsonl: the shared unit vectors (tools/make_vectors.py, from a reference model). */
-const VECTORS: Vector[] = readFileSync(fileURLToPath(new URL("../../spec/vectors/units.jsonl", import.meta.url)), "utf8")
+const VECTORS: Vector[] = readFileSync(
+  fileURLToPath(new URL("../../spec/vectors/units.jsonl", import.meta.url)),
+  "utf8",
+)
   .split("\n")
   .filter((line) => line.trim() !== "")
   .map((line) => JSON.parse(line) as Vector);
@@ -66,7 +69,11 @@ describe("units: the shared vectors (spec/vectors/units.jsonl)", () => {
   // program's JSON layer, checked through conformance/run.
   const toWire_ = VECTORS.filter((v) => {
     const r = requestOf(v);
-    return r["op"] === "to_wire" && (typeof r["value"] === "number" || typeof r["value"] === "string") && !("error" in v.expect && v.expect["error"] !== "range");
+    return (
+      r["op"] === "to_wire" &&
+      (typeof r["value"] === "number" || typeof r["value"] === "string") &&
+      !("error" in v.expect && v.expect["error"] !== "range")
+    );
   });
   const fromWire_ = VECTORS.filter((v) => requestOf(v)["op"] === "from_wire" && "value" in v.expect);
 
@@ -80,7 +87,11 @@ describe("units: the shared vectors (spec/vectors/units.jsonl)", () => {
     const failures = toWire_
       .map((v) => {
         const r = requestOf(v);
-        return { name: v.name, expect: v.expect, got: libraryToWire(r["quantity"] as string, r["value"] as number | string) };
+        return {
+          name: v.name,
+          expect: v.expect,
+          got: libraryToWire(r["quantity"] as string, r["value"] as number | string),
+        };
       })
       .filter((c) => JSON.stringify(c.got) !== JSON.stringify(c.expect));
     expect(failures).toEqual([]);
@@ -133,7 +144,9 @@ describe("units", () => {
   });
 
   it("says what is allowed when a motion value is out of range", () => {
-    expect(() => positionToWire(655.335)).toThrow(/degrees = 655\.335 is out of range; allowed: -655\.33\.\.655\.33 deg/);
+    expect(() => positionToWire(655.335)).toThrow(
+      /degrees = 655\.335 is out of range; allowed: -655\.33\.\.655\.33 deg/,
+    );
     expect(() => speedToWire(0)).toThrow(/rpm = 0 is out of range; allowed: -6553\.3\.\.-0\.1 or 0\.1\.\.6553\.3 rpm/);
     expect(() => arrivalToWire(30)).toThrow(/seconds = 30 is out of range; allowed: 0\.1\.\.25\.5 s/);
   });

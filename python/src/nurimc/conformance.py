@@ -129,6 +129,8 @@ def _number(value: object) -> float | None:
     """A JSON number as the double every JSON reader makes of it (None: not a number)."""
     if isinstance(value, _Float):
         return float(value.text)
+    if isinstance(value, float):  # a request built in Python (answer() called directly)
+        return value
     if isinstance(value, int) and not isinstance(value, bool):
         return float(value) if abs(value) < _HUGE else float("inf") if value > 0 else float("-inf")
     return None
