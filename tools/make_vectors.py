@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import random
 import sys
+from decimal import ROUND_HALF_UP, Decimal, localcontext
 from typing import Any
 
 import speclib
@@ -674,6 +676,237 @@ def edge_vectors() -> list[dict[str, Any]]:
     return out
 
 
+# ---- units: physical values <-> wire integers ------------------------------
+#
+# The reference rule (docs/protocol.md, conformance/README.md "units"): a JSON number is the
+# double every JSON reader makes of it; its shortest decimal form (repr) is divided by the
+# step exactly, in decimal, and rounded to the nearest integer, halves away from zero; the
+# wire value is then range-checked. Wire -> physical is exact to the step's decimals.
+
+SETTINGS_SPEC = json.loads((speclib.ROOT / "spec" / "settings.json").read_text())["settings"]
+HOST_LIMITS = json.loads((speclib.ROOT / "spec" / "host.json").read_text())["limits"]
+
+
+def field_of(message: str, name: str) -> dict[str, Any]:
+    return next(f for f in MESSAGES[message]["fields"] if f["name"] == name)
+
+
+def steps(value: float, scale: float) -> int:
+    """Nearest step of `value` at `scale`, halves away from zero, on the decimal forms."""
+    with localcontext() as ctx:
+        ctx.prec = 800  # exact for every double
+        exact = Decimal(repr(float(value))) / Decimal(repr(scale))
+        return int(exact.quantize(Decimal(1), rounding=ROUND_HALF_UP))
+
+
+def physical_of(raw: int, scale: float) -> float | int:
+    exact = Decimal(raw) * Decimal(repr(scale))
+    return int(exact) if exact == exact.to_integral_value() and scale >= 1 else float(exact)
+
+
+def motion_quantity(name: str) -> dict[str, Any]:
+    message, field, low, high = {
+        "degrees": ("position_speed", "position", 0.0, HOST_LIMITS["position_deg"]),
+        "rpm": ("accel_speed", "speed", HOST_LIMITS["speed_rpm_min"], HOST_LIMITS["speed_rpm_max"]),
+        "seconds": ("accel_speed", "arrival_time", HOST_LIMITS["arrival_s_min"], HOST_LIMITS["arrival_s_max"]),
+    }[name]
+    scale = field_of(message, field)["scale"]
+    return {"scale": scale, "min": steps(low, scale), "max": steps(high, scale), "signed": name != "seconds"}
+
+
+def setting_quantity(name: str) -> dict[str, Any]:
+    """A setting of spec/settings.json with the field (of its answer) that carries it."""
+    entry = next(s for s in SETTINGS_SPEC if s["name"] == name)
+    field = field_of(MESSAGES[entry["request"]]["answer"], entry["field"])
+    values = {str(n): label for n, label in (field.get("values") or {}).items()}
+    return {"field": field, "input": entry["input"], "values": values}
+
+
+def ref_to_wire(quantity: str, value: Any) -> dict[str, Any]:
+    """The answer to {"op":"to_wire"} (value as a Python number, or a string)."""
+    motion = quantity in ("degrees", "rpm", "seconds")
+    if not motion:
+        s = setting_quantity(quantity)
+        if isinstance(value, str):
+            if s["input"] != "choice":
+                return {"error": "type"}
+            named = {label: int(n) for n, label in s["values"].items()}
+            return {"wire": named[value]} if value in named else {"error": "range"}
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return {"error": "type"}
+    number = float(value) if abs(value) < 1e300 else float("inf")
+    if not math.isfinite(number):
+        return {"error": "range"}
+    if motion:
+        q = motion_quantity(quantity)
+        raw = steps(abs(number) if q["signed"] else number, q["scale"])
+        if not q["min"] <= raw <= q["max"]:
+            return {"error": "range"}
+        return {"direction": int(number < 0), "wire": raw} if q["signed"] else {"wire": raw}
+    field = s["field"]
+    if s["input"] == "quantize":
+        raw = steps(number, field["scale"])
+    elif number.is_integer():
+        raw = int(number)
+    else:
+        return {"error": "range"}
+    return {"wire": raw} if field["min"] <= raw <= field["max"] else {"error": "range"}
+
+
+def ref_from_wire(quantity: str, wire: int, direction: int = 0) -> dict[str, Any]:
+    if quantity in ("degrees", "rpm", "seconds"):
+        value = physical_of(wire, motion_quantity(quantity)["scale"])
+        return {"value": -value if direction == 1 and quantity != "seconds" else value}
+    s = setting_quantity(quantity)
+    if str(wire) in s["values"]:
+        return {"value": s["values"][str(wire)]}
+    return {"value": physical_of(wire, s["field"]["scale"])}
+
+
+def to_wire_vec(name: str, quantity: str, value: Any) -> dict[str, Any]:
+    return vec(name, {"op": "to_wire", "quantity": quantity, "value": value}, ref_to_wire(quantity, value))
+
+
+def units_vectors() -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    quantize = ["degrees", "rpm", "seconds"] + [s["name"] for s in SETTINGS_SPEC if s["input"] == "quantize"]
+    for quantity in quantize:
+        if quantity in ("degrees", "rpm", "seconds"):
+            q = motion_quantity(quantity)
+            scale, low, high = q["scale"], q["min"], q["max"]
+        else:
+            field = setting_quantity(quantity)["field"]
+            scale, low, high = field["scale"], field["min"], field["max"]
+        step = Decimal(repr(scale))
+        top = Decimal(high) * step
+        bottom = Decimal(low) * step
+        edges: list[tuple[str, Any]] = [
+            ("the smallest", float(bottom) if scale < 1 else int(bottom)),
+            ("the largest", float(top) if scale < 1 else int(top)),
+            ("the largest + a shade under half a step", float(top + step * Decimal("0.49"))),
+            ("the largest + half a step", float(top + step / 2)),
+            ("the smallest - half a step", float(bottom - step / 2)),
+            ("the smallest - a shade over half a step", float(bottom - step * Decimal("0.51"))),
+            ("a typical value", float((bottom + top) / 2)),
+            ("zero", 0),
+            ("zero written 0.0", 0.0),
+            ("-0.0", -0.0),
+            ("a tiny value", 1e-7),
+            ("1e30", 1e30),
+            ("a 30-digit integer", 10**30),
+            ("-1", -1),
+        ]
+        # halves of the step in decimal that are just below the half in binary, and the other way
+        halves = [(Decimal(k) + Decimal("0.5")) * step for k in (0, 1, 2, 7, 1800, 12344) if k < high]
+        traps = ("0.15", "0.25", "0.35", "1.005", "2.675", "180.005", "0.285", "1.115", "12.345", "250")
+        for text in [*traps, *(str(h.normalize()) for h in halves)]:
+            edges.append((f"{text}", float(text) if "." in text or "E" in text else int(text)))
+            edges.append((f"-{text}", -float(text) if "." in text or "E" in text else -int(text)))
+        edges += [("0.14999 (below a half)", 0.14999), ("0.15001 (above a half)", 0.15001)]
+        for label, value in edges:
+            out.append(to_wire_vec(f"to_wire {quantity}: {label}", quantity, value))
+        for text in ("1e400", "-1e400", "1e-400", "1.8e2", "5E-2", "-0"):
+            value = float(text) if text != "-0" else 0
+            expect = ref_to_wire(quantity, value)
+            out.append(
+                line_vec(
+                    f"to_wire {quantity}: written {text}",
+                    [(f'{{"op":"to_wire","quantity":"{quantity}","value":{text}}}', 1)],
+                    expect,
+                )
+            )
+        # every wire value round-trips through its physical value (a seeded sample)
+        rng = random.Random(f"units {quantity}")
+        for raw in sorted({low, high, *rng.sample(range(low, high + 1), min(12, high - low + 1))}):
+            physical = ref_from_wire(quantity, raw)["value"]
+            out.append(to_wire_vec(f"to_wire {quantity}: {physical} is wire {raw}", quantity, physical))
+        for index in range(12):
+            value = round(rng.uniform(-1.2, 1.2) * float(top), rng.choice([1, 2, 3, 4, 7]))
+            out.append(to_wire_vec(f"to_wire {quantity}: random value {index}", quantity, value))
+    # whole-number settings: a fraction is refused, a whole number written as a float is not
+    for s in SETTINGS_SPEC:
+        if s["input"] != "integer":
+            continue
+        field = setting_quantity(s["name"])["field"]
+        for label, value in [
+            ("the smallest", field["min"]),
+            ("the largest", field["max"]),
+            ("below the smallest", field["min"] - 1),
+            ("above the largest", field["max"] + 1),
+            ("a fraction", field["min"] + 0.5),
+            ("a small fraction", field["max"] - 0.001),
+            ("a whole number written 2.0", 2.0),
+        ]:
+            out.append(to_wire_vec(f"to_wire {s['name']}: {label}", s["name"], value))
+        out.append(
+            line_vec(
+                f"to_wire {s['name']}: a whole number written 1e1",
+                [(f'{{"op":"to_wire","quantity":"{s["name"]}","value":1e1}}', 1)],
+                ref_to_wire(s["name"], 10.0),
+            )
+        )
+    # choices: a value name or the wire integer
+    for s in SETTINGS_SPEC:
+        if s["input"] != "choice":
+            continue
+        values = setting_quantity(s["name"])["values"]
+        for n, label in values.items():
+            out.append(to_wire_vec(f"to_wire {s['name']}: {label}", s["name"], label))
+            out.append(to_wire_vec(f"to_wire {s['name']}: {n}", s["name"], int(n)))
+        for value in ["sideways", "", 2, 0.5, -1]:
+            out.append(to_wire_vec(f"to_wire {s['name']}: {value!r}", s["name"], value))
+    # what is not a value, and what is not a quantity
+    for label, value in [("null", None), ("true", True), ("a list", [1]), ("an object", {"v": 1}), ("a string", "90")]:
+        out.append(to_wire_vec(f"to_wire degrees: value {label}", "degrees", value))
+        out.append(to_wire_vec(f"to_wire ratio: value {label}", "ratio", value))
+    out.append(vec("to_wire without a value", {"op": "to_wire", "quantity": "rpm"}, {"error": "type"}))
+    out.append(vec("to_wire rpm: 0 is no speed", {"op": "to_wire", "quantity": "rpm", "value": 0}, {"error": "range"}))
+    for quantity in ["furlongs", "Degrees", "position_kp", "", 3, None, "degrees\u0000"]:
+        out.append(
+            vec(
+                f"to_wire: quantity {quantity!r} is unknown",
+                {"op": "to_wire", "quantity": quantity, "value": 1},
+                {"error": "unknown_quantity"},
+            )
+        )
+    out.append(vec("to_wire without a quantity", {"op": "to_wire", "value": 1}, {"error": "unknown_quantity"}))
+    # wire -> physical
+    everything = ["degrees", "rpm", "seconds"] + [s["name"] for s in SETTINGS_SPEC]
+    for quantity in everything:
+        rng = random.Random(f"from_wire {quantity}")
+        wires = [0, 1, 3, 255, 18001, 65533, 65535, rng.randrange(65536), rng.randrange(256)]
+        for wire in wires:
+            directions = [0, 1] if quantity in ("degrees", "rpm") else [None]
+            for direction in directions:
+                request: dict[str, Any] = {"op": "from_wire", "quantity": quantity, "wire": wire}
+                if direction is not None:
+                    request["direction"] = direction
+                name = f"from_wire {quantity}: {wire}" + ("" if direction is None else f" direction {direction}")
+                out.append(vec(name, request, ref_from_wire(quantity, wire, direction or 0)))
+    for label, request, expect in [
+        ("wire 65536", {"quantity": "ratio", "wire": 65536}, {"error": "range"}),
+        ("wire -1", {"quantity": "ratio", "wire": -1}, {"error": "range"}),
+        ("a 30-digit wire", {"quantity": "ratio", "wire": 10**30}, {"error": "range"}),
+        ("wire a string", {"quantity": "ratio", "wire": "125"}, {"error": "type"}),
+        ("wire null", {"quantity": "ratio", "wire": None}, {"error": "type"}),
+        ("no wire", {"quantity": "ratio"}, {"error": "type"}),
+        ("direction 2", {"quantity": "degrees", "wire": 5, "direction": 2}, {"error": "range"}),
+        ("no direction", {"quantity": "degrees", "wire": 5}, {"error": "type"}),
+        ("direction true", {"quantity": "rpm", "wire": 5, "direction": True}, {"error": "type"}),
+        ("unknown quantity", {"quantity": "furlongs", "wire": 5}, {"error": "unknown_quantity"}),
+    ]:
+        out.append(vec(f"from_wire: {label}", {"op": "from_wire", **request}, expect))
+    for text in ("125.0", "1e2", "-0.0"):
+        out.append(
+            line_vec(
+                f"from_wire: wire written {text} is no integer",
+                [(f'{{"op":"from_wire","quantity":"ratio","wire":{text}}}', 1)],
+                {"error": "type"},
+            )
+        )
+    return out
+
+
 SETS = {
     "examples": example_vectors,
     "errata": errata_vectors,
@@ -681,6 +914,7 @@ SETS = {
     "broken": broken_vectors,
     "streams": stream_vectors,
     "edges": edge_vectors,
+    "units": units_vectors,
 }
 
 

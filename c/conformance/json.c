@@ -124,7 +124,7 @@ static char *read_string(reader *r, size_t *length) {
 static int read_value(reader *r);
 
 static int read_number(reader *r) {
-    char *p = r->at;
+    char *p = r->at, *start = r->at;
     int is_float = 0, negative = 0, node;
     long value = 0;
     int saturated = 0;
@@ -161,6 +161,7 @@ static int read_number(reader *r) {
     if (node < 0) return fail(r, "out of memory");
     if (saturated) value = LONG_MAX;
     r->doc->nodes[node].value = negative ? -value : value;
+    r->doc->nodes[node].number = strtod(start, NULL);
     return node;
 }
 

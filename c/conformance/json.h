@@ -9,6 +9,7 @@ typedef enum { JSON_NULL, JSON_BOOL, JSON_INT, JSON_FLOAT, JSON_STRING, JSON_ARR
 typedef struct json_node {
     json_type type;
     long value;        /* JSON_INT (saturated to the range of long) and JSON_BOOL */
+    double number;     /* JSON_INT and JSON_FLOAT: the nearest double (strtod; +-HUGE_VAL beyond) */
     const char *text;  /* JSON_STRING: unescaped, NUL-terminated, in the input buffer */
     size_t length;     /* JSON_STRING: bytes in text (a \u0000 inside counts; strings compare whole) */
     const char *key;   /* the member name when the parent is an object */

@@ -6,6 +6,9 @@
 
 #include "json.h"
 #include "nurimc.h"
+#include "nurimc_host.h"
+#include "nurimc_settings.h"
+#include "units.h"
 
 typedef struct output {
     char *text;
@@ -282,6 +285,145 @@ static int is_utf8(const unsigned char *s, size_t n) {
     return 1;
 }
 
+/* ---- units: physical values <-> wire integers (conformance/README.md, "units") ---- */
+
+typedef struct quantity {
+    unsigned long num, den; /* one step = num / den of the unit */
+    long min, max;          /* wire range of a value given to to_wire */
+    int is_signed;          /* a direction flag and a magnitude (degrees, rpm) */
+    const nurimc_setting *setting;
+} quantity;
+
+static const nurimc_field_spec *field_of(nurimc_message_type type, const char *name) {
+    const nurimc_message_spec *spec = nurimc_spec(type);
+    unsigned i;
+    for (i = 0; spec != NULL && i < spec->field_count; i++) {
+        if (strcmp(spec->fields[i].name, name) == 0) return &spec->fields[i];
+    }
+    fprintf(stderr, "conformance: no field %s\n", name);
+    exit(1);
+}
+
+/* A motion quantity: its field's step and the limits of spec/host.json, rounded to steps. */
+static void motion(quantity *q, nurimc_message_type type, const char *field, double low, double high, int is_signed) {
+    const nurimc_field_spec *f = field_of(type, field);
+    q->num = f->scale_num;
+    q->den = f->scale_den;
+    q->is_signed = is_signed;
+    q->setting = NULL;
+    if (units_to_wire(low, q->num, q->den, &q->min) != 0 || units_to_wire(high, q->num, q->den, &q->max) != 0) exit(1);
+}
+
+/* The request's quantity, by its exact name; -1 if there is none such. */
+static int find_quantity(const json_doc *doc, quantity *q) {
+    int node = json_member(doc, 0, "quantity");
+    const json_node *n;
+    if (node < 0 || doc->nodes[node].type != JSON_STRING) return -1;
+    n = &doc->nodes[node];
+    if (strlen(n->text) != n->length) return -1; /* a NUL inside names nothing */
+    if (strcmp(n->text, "degrees") == 0) {
+        motion(q, NURIMC_MSG_POSITION_SPEED, "position", 0.0, NURIMC_LIMIT_POSITION_DEG, 1);
+    } else if (strcmp(n->text, "rpm") == 0) {
+        motion(q, NURIMC_MSG_ACCEL_SPEED, "speed", NURIMC_LIMIT_SPEED_RPM_MIN, NURIMC_LIMIT_SPEED_RPM_MAX, 1);
+    } else if (strcmp(n->text, "seconds") == 0) {
+        motion(q, NURIMC_MSG_ACCEL_SPEED, "arrival_time", NURIMC_LIMIT_ARRIVAL_S_MIN, NURIMC_LIMIT_ARRIVAL_S_MAX, 0);
+    } else {
+        q->setting = nurimc_setting_by_name(n->text);
+        if (q->setting == NULL) return -1;
+        q->num = q->setting->scale_num;
+        q->den = q->setting->scale_den;
+        q->min = q->setting->min;
+        q->max = q->setting->max;
+        q->is_signed = 0;
+    }
+    return 0;
+}
+
+static void op_to_wire(output *out, const json_doc *doc) {
+    quantity q;
+    int node = json_member(doc, 0, "value");
+    long steps = 0;
+    double value, magnitude;
+    char text[64];
+    unsigned i;
+    if (find_quantity(doc, &q) != 0) {
+        put_error(out, "unknown_quantity", NULL);
+        return;
+    }
+    if (node >= 0 && doc->nodes[node].type == JSON_STRING && q.setting != NULL &&
+        q.setting->input == NURIMC_INPUT_CHOICE) {
+        for (i = 0; i < sizeof q.setting->value_names / sizeof q.setting->value_names[0]; i++) {
+            if (q.setting->value_names[i] != NULL && json_string_is(doc, node, q.setting->value_names[i])) {
+                snprintf(text, sizeof text, "{\"wire\":%u}", i);
+                put(out, text);
+                return;
+            }
+        }
+        put_error(out, "range", NULL);
+        return;
+    }
+    if (node < 0 || (doc->nodes[node].type != JSON_INT && doc->nodes[node].type != JSON_FLOAT)) {
+        put_error(out, "type", NULL);
+        return;
+    }
+    value = doc->nodes[node].number;
+    magnitude = value < 0 ? -value : value;
+    if (q.setting != NULL && q.setting->input != NURIMC_INPUT_QUANTIZE) {
+        /* a whole number (2.0 and 1e1 are), in the field's unit: these settings have no scale */
+        if (!isfinite(value) || magnitude > 1e15 || (double)(long long)value != value) {
+            put_error(out, "range", NULL);
+            return;
+        }
+        steps = (long)value;
+    } else if (units_to_wire(q.is_signed ? magnitude : value, q.num, q.den, &steps) != 0) {
+        put_error(out, "range", NULL);
+        return;
+    }
+    if (steps < q.min || steps > q.max) {
+        put_error(out, "range", NULL);
+        return;
+    }
+    if (q.is_signed) {
+        snprintf(text, sizeof text, "{\"direction\":%d,\"wire\":%ld}", value < 0 ? 1 : 0, steps);
+    } else {
+        snprintf(text, sizeof text, "{\"wire\":%ld}", steps);
+    }
+    put(out, text);
+}
+
+/* A JSON integer node in 0..max: 0 and *value; else the error kind. */
+static const char *integer_in(const json_doc *doc, int node, long max, long *value) {
+    if (!is_integer(doc, node)) return "type";
+    if (doc->nodes[node].value < 0 || doc->nodes[node].value > max) return "range";
+    *value = doc->nodes[node].value;
+    return NULL;
+}
+
+static void op_from_wire(output *out, const json_doc *doc) {
+    quantity q;
+    long wire = 0, direction = 0;
+    const char *error;
+    char text[64];
+    if (find_quantity(doc, &q) != 0) {
+        put_error(out, "unknown_quantity", NULL);
+        return;
+    }
+    error = integer_in(doc, json_member(doc, 0, "wire"), 65535, &wire);
+    if (error == NULL && q.is_signed) error = integer_in(doc, json_member(doc, 0, "direction"), 1, &direction);
+    if (error != NULL) {
+        put_error(out, error, NULL);
+        return;
+    }
+    put(out, "{\"value\":");
+    if (q.setting != NULL && wire < 2 && q.setting->value_names[wire] != NULL) {
+        put_string(out, q.setting->value_names[wire]);
+    } else {
+        units_from_wire(wire, q.num, q.den, direction == 1, text, sizeof text);
+        put(out, text);
+    }
+    put(out, "}");
+}
+
 static void bad_request(output *out, const char *detail) {
     put(out, "{\"error\":\"bad_request\",\"detail\":");
     put_string(out, detail);
@@ -317,6 +459,10 @@ static void answer(output *out, char *line, size_t n) {
             op_encode(out, &doc);
         } else if (json_string_is(&doc, op, "parse")) {
             op_parse(out, &doc);
+        } else if (json_string_is(&doc, op, "to_wire")) {
+            op_to_wire(out, &doc);
+        } else if (json_string_is(&doc, op, "from_wire")) {
+            op_from_wire(out, &doc);
         } else {
             put_error(out, "unknown_op", NULL);
         }

@@ -25,6 +25,7 @@ typedef struct nurimc_setting {
     uint32_t scale_num, scale_den;   /* physical = wire x num / den */
     long min, max;                   /* wire range */
     nurimc_input_rule input;
+    const char *value_names[2];     /* the name of wire value i (NURIMC_INPUT_CHOICE); NULL: none */
 } nurimc_setting;
 
 #define NURIMC_SETTING_COUNT 16u
@@ -32,22 +33,22 @@ typedef struct nurimc_setting {
 /* Every setting, in the order of spec/settings.json; *count is set to NURIMC_SETTING_COUNT. */
 static inline const nurimc_setting *nurimc_settings(size_t *count) {
     static const nurimc_setting table[] = {
-        {"position-kp", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "kp", "", 1u, 1u, 1, 254, NURIMC_INPUT_INTEGER},
-        {"position-ki", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "ki", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER},
-        {"position-kd", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "kd", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER},
-        {"position-rated-current", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "rated_current", "A", 1u, 10u, 1, 254, NURIMC_INPUT_QUANTIZE},
-        {"speed-kp", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "kp", "", 1u, 1u, 1, 254, NURIMC_INPUT_INTEGER},
-        {"speed-ki", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "ki", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER},
-        {"speed-kd", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "kd", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER},
-        {"speed-rated-current", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "rated_current", "A", 1u, 10u, 1, 254, NURIMC_INPUT_QUANTIZE},
-        {"response-time", (int)NURIMC_MSG_SET_RESPONSE_TIME, NURIMC_MSG_REQUEST_RESPONSE_TIME, NURIMC_MSG_RESPONSE_TIME, "response_time", "\u00b5s", 100u, 1u, 0, 254, NURIMC_INPUT_QUANTIZE},
-        {"rated-speed", (int)NURIMC_MSG_SET_RATED_SPEED, NURIMC_MSG_REQUEST_RATED_SPEED, NURIMC_MSG_RATED_SPEED, "rated_speed", "RPM", 1u, 1u, 1, 65533, NURIMC_INPUT_INTEGER},
-        {"resolution", (int)NURIMC_MSG_SET_RESOLUTION, NURIMC_MSG_REQUEST_RESOLUTION, NURIMC_MSG_RESOLUTION, "resolution", "", 1u, 1u, 1, 65533, NURIMC_INPUT_INTEGER},
-        {"ratio", (int)NURIMC_MSG_SET_RATIO, NURIMC_MSG_REQUEST_RATIO, NURIMC_MSG_RATIO, "ratio", ":1", 1u, 10u, 1, 65533, NURIMC_INPUT_QUANTIZE},
-        {"control", (int)NURIMC_MSG_SET_CONTROL, NURIMC_MSG_REQUEST_CONTROL, NURIMC_MSG_CONTROL, "control", "", 1u, 1u, 0, 1, NURIMC_INPUT_CHOICE},
-        {"position-mode", (int)NURIMC_MSG_SET_POSITION_MODE, NURIMC_MSG_REQUEST_POSITION_MODE, NURIMC_MSG_POSITION_MODE, "position_mode", "", 1u, 1u, 0, 1, NURIMC_INPUT_CHOICE},
-        {"direction", (int)NURIMC_MSG_SET_DIRECTION, NURIMC_MSG_REQUEST_DIRECTION, NURIMC_MSG_DIRECTION, "direction", "", 1u, 1u, 0, 1, NURIMC_INPUT_CHOICE},
-        {"firmware", -1, NURIMC_MSG_REQUEST_FIRMWARE, NURIMC_MSG_FIRMWARE, "version", "", 1u, 1u, 0, 255, NURIMC_INPUT_INTEGER},
+        {"position-kp", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "kp", "", 1u, 1u, 1, 254, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"position-ki", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "ki", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"position-kd", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "kd", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"position-rated-current", (int)NURIMC_MSG_SET_POSITION_GAINS, NURIMC_MSG_REQUEST_POSITION_GAINS, NURIMC_MSG_POSITION_GAINS, "rated_current", "A", 1u, 10u, 1, 254, NURIMC_INPUT_QUANTIZE, {NULL, NULL}},
+        {"speed-kp", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "kp", "", 1u, 1u, 1, 254, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"speed-ki", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "ki", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"speed-kd", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "kd", "", 1u, 1u, 0, 254, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"speed-rated-current", (int)NURIMC_MSG_SET_SPEED_GAINS, NURIMC_MSG_REQUEST_SPEED_GAINS, NURIMC_MSG_SPEED_GAINS, "rated_current", "A", 1u, 10u, 1, 254, NURIMC_INPUT_QUANTIZE, {NULL, NULL}},
+        {"response-time", (int)NURIMC_MSG_SET_RESPONSE_TIME, NURIMC_MSG_REQUEST_RESPONSE_TIME, NURIMC_MSG_RESPONSE_TIME, "response_time", "\u00b5s", 100u, 1u, 0, 254, NURIMC_INPUT_QUANTIZE, {NULL, NULL}},
+        {"rated-speed", (int)NURIMC_MSG_SET_RATED_SPEED, NURIMC_MSG_REQUEST_RATED_SPEED, NURIMC_MSG_RATED_SPEED, "rated_speed", "RPM", 1u, 1u, 1, 65533, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"resolution", (int)NURIMC_MSG_SET_RESOLUTION, NURIMC_MSG_REQUEST_RESOLUTION, NURIMC_MSG_RESOLUTION, "resolution", "", 1u, 1u, 1, 65533, NURIMC_INPUT_INTEGER, {NULL, NULL}},
+        {"ratio", (int)NURIMC_MSG_SET_RATIO, NURIMC_MSG_REQUEST_RATIO, NURIMC_MSG_RATIO, "ratio", ":1", 1u, 10u, 1, 65533, NURIMC_INPUT_QUANTIZE, {NULL, NULL}},
+        {"control", (int)NURIMC_MSG_SET_CONTROL, NURIMC_MSG_REQUEST_CONTROL, NURIMC_MSG_CONTROL, "control", "", 1u, 1u, 0, 1, NURIMC_INPUT_CHOICE, {"on", "off"}},
+        {"position-mode", (int)NURIMC_MSG_SET_POSITION_MODE, NURIMC_MSG_REQUEST_POSITION_MODE, NURIMC_MSG_POSITION_MODE, "position_mode", "", 1u, 1u, 0, 1, NURIMC_INPUT_CHOICE, {"absolute", "relative"}},
+        {"direction", (int)NURIMC_MSG_SET_DIRECTION, NURIMC_MSG_REQUEST_DIRECTION, NURIMC_MSG_DIRECTION, "direction", "", 1u, 1u, 0, 1, NURIMC_INPUT_CHOICE, {"ccw", "cw"}},
+        {"firmware", -1, NURIMC_MSG_REQUEST_FIRMWARE, NURIMC_MSG_FIRMWARE, "version", "", 1u, 1u, 0, 255, NURIMC_INPUT_INTEGER, {NULL, NULL}},
     };
     if (count != NULL) *count = sizeof table / sizeof table[0];
     return table;

@@ -4,8 +4,10 @@ import { pathToFileURL } from "node:url";
 import { decode, encode, make, toRecord } from "./codec.js";
 import { DecodeError, EncodeError } from "./errors.js";
 import { fromHex } from "./frame.js";
-import { BadRequest, type JsonValue, MAX_LINE_BYTES, readRequest } from "./jsonline.js";
+import { BadRequest, JsonFloat, type JsonValue, MAX_LINE_BYTES, readRequest } from "./jsonline.js";
 import { StreamParser } from "./parser.js";
+import { SETTINGS, setting, settingFromWire, settingToWire } from "./settings.js";
+import { arrivalToWire, fromWire, positionToWire, signedFromWire, speedToWire, UnitRangeError } from "./units.js";
 
 type Reply = Record<string, unknown>;
 
@@ -37,6 +39,63 @@ function parse(request: Record<string, unknown>): Reply {
   return { frames, dropped_bytes: parser.stats.droppedBytes };
 }
 
+/** The units ops' quantities: the motion ones, then every setting of spec/settings.json by its exact name. */
+const MOTION = ["degrees", "rpm", "seconds"];
+const QUANTITIES = new Set([...MOTION, ...SETTINGS.map((s) => s.name)]);
+
+class UnitError extends Error {
+  constructor(readonly kind: "unknown_quantity" | "type" | "range") {
+    super(kind);
+  }
+}
+
+/** A JSON number as the double every JSON reader makes of it. */
+function numberOf(value: unknown): number | null {
+  if (value instanceof JsonFloat) return Number(value.text);
+  return typeof value === "number" ? value : null;
+}
+
+/** A JSON integer (written without fraction or exponent) in 0..max; `type` / `range` otherwise. */
+function integerIn(value: unknown, max: number): number {
+  if (typeof value !== "number") throw new UnitError("type");
+  if (value < 0 || value > max) throw new UnitError("range");
+  return value;
+}
+
+function quantityOf(req: Record<string, unknown>): string {
+  const quantity = own(req, "quantity");
+  if (typeof quantity !== "string" || !QUANTITIES.has(quantity)) throw new UnitError("unknown_quantity");
+  return quantity;
+}
+
+function toWireOp(req: Record<string, unknown>): Reply {
+  const quantity = quantityOf(req);
+  const value = own(req, "value");
+  const spec = MOTION.includes(quantity) ? undefined : setting(quantity);
+  const number = numberOf(value);
+  if (number === null && !(typeof value === "string" && spec?.input === "choice")) throw new UnitError("type");
+  try {
+    if (quantity === "degrees") return { ...positionToWire(number as number) };
+    if (quantity === "rpm") return { ...speedToWire(number as number) };
+    if (quantity === "seconds") return { wire: arrivalToWire(number as number) };
+    return { wire: settingToWire(setting(quantity), number ?? (value as string)) };
+  } catch (err) {
+    if (err instanceof UnitRangeError) throw new UnitError("range");
+    throw err;
+  }
+}
+
+function fromWireOp(req: Record<string, unknown>): Reply {
+  const quantity = quantityOf(req);
+  const wire = integerIn(own(req, "wire"), 65535);
+  if (quantity === "degrees" || quantity === "rpm") {
+    const direction = integerIn(own(req, "direction"), 1);
+    return { value: signedFromWire(direction, wire, quantity === "degrees" ? 0.01 : 0.1) };
+  }
+  if (quantity === "seconds") return { value: fromWire(wire, 0.1) };
+  return { value: settingFromWire(setting(quantity), wire) };
+}
+
 export function answer(request: unknown): Reply {
   if (typeof request !== "object" || request === null || Array.isArray(request)) {
     return { error: "bad_request", detail: "each line must be a JSON object" };
@@ -58,6 +117,10 @@ export function answer(request: unknown): Reply {
       }
       case "parse":
         return parse(req);
+      case "to_wire":
+        return toWireOp(req);
+      case "from_wire":
+        return fromWireOp(req);
       default:
         return { error: "unknown_op" };
     }
@@ -66,6 +129,7 @@ export function answer(request: unknown): Reply {
     if (err instanceof EncodeError)
       return err.field === null ? { error: err.kind } : { error: err.kind, field: err.field };
     if (err instanceof BadHex) return { error: "bad_hex" };
+    if (err instanceof UnitError) return { error: err.kind };
     throw err;
   }
 }

@@ -17,4 +17,6 @@ export * from "./motor.js";
 export * from "./parser.js";
 export { type WebSerialDevice, WebSerialPort } from "./ports/webserial.js";
 export type * from "./schema.js";
+export * from "./settings.js";
 export * as units from "./units.js";
+export { type SignedWire, UnitRangeError } from "./units.js";

@@ -1,66 +1,172 @@
 /**
- * A motor handle: one controller ID on a Bus, in physical units (degrees, RPM,
- * amperes, seconds, microseconds, n:1). Settings writes are verified by reading back.
+ * A motor handle: one controller ID on a Bus, in physical units with the Python library's
+ * meaning (python/src/nurimc/motor.py): positions in signed degrees and speeds in signed
+ * RPM, counter-clockwise positive; seconds, amperes; settings by name in their units.
  *
- * Position on the wire is a magnitude (0..655.33 deg) with a direction flag; this
- * handle passes both through as they are and keeps no multi-turn count.
+ * - `moveTo` goes to an absolute signed position (±655.33°), `moveBy` moves by a signed
+ *   amount; both honour the controller's position mode (read once) and switch control on
+ *   first if it is off. `run` turns at a signed speed (0 is refused: `release` or `hold`).
+ * - `hold` switches control on and, in absolute mode, re-targets the present position.
+ * - `readState` reports the device's signed position and a continuous position that
+ *   unwraps the 655.36° counter (host-side multi-turn tracking).
+ * - Limits come from spec/host.json (LIMITS) and spec/protocol.json; a value is rounded to
+ *   the nearest wire step first, then range-checked (units.ts); the error comes before
+ *   anything is sent.
  */
 import type { Bus } from "./bus/client.js";
 import { VerifyError } from "./bus/errors.js";
-import { make, messageSpec } from "./codec.js";
-import { fromWire, toWire } from "./units.js";
-
-export type Direction = "ccw" | "cw";
+import { fieldsOf, type Message, type MessageOf, make } from "./codec.js";
+import { LIMITS } from "./generated/host.js";
+import { SETTINGS, type SettingSpec, type SettingValue, setting, settingFromWire, settingToWire } from "./settings.js";
+import { arrivalToWire, fromWire, positionToWire, signedFromWire, speedToWire } from "./units.js";
 
 export interface MotorState {
-  /** degrees, 0..655.33, the magnitude of the position */
+  id: number;
+  /** degrees, continuous across the counter's wraps (host-side multi-turn tracking) */
   position: number;
-  direction: Direction;
-  /** RPM */
+  /** degrees, signed, as the device reported it (-655.35..655.35) */
+  devicePosition: number;
+  /** RPM: the magnitude from position feedback; `readSpeed()` gives it signed */
   speed: number;
   /** amperes */
   current: number;
+  /** "ccw" or "cw": the sign of devicePosition */
+  direction: "ccw" | "cw";
 }
 
-export interface Gains {
-  kp: number;
-  ki: number;
-  kd: number;
-  /** amperes */
-  ratedCurrent: number;
+/** How a move travels: at a speed (§1) or arriving after a time (§2). */
+export type Travel = { rpm: number; seconds?: undefined } | { seconds: number; rpm?: undefined };
+
+/** The speed `hold()` uses to re-target the present position. */
+export const HOLD_RPM = 10;
+
+/**
+ * Host-side multi-turn tracking: each step between two readings is taken the shortest way
+ * round the 655.36° counter, so the continuous position is right while the motor turns
+ * less than half a wrap between readings (at 100 RPM, read at least every 0.5 s).
+ */
+export class TurnTracker {
+  private last: number | null = null;
+  position = 0;
+
+  update(deviceDegrees: number): number {
+    const wrap = LIMITS.positionWrapDeg;
+    if (this.last === null) this.position = deviceDegrees;
+    else {
+      const step = ((((deviceDegrees - this.last + wrap / 2) % wrap) + wrap) % wrap) - wrap / 2;
+      this.position += step;
+    }
+    this.last = deviceDegrees;
+    this.position = Math.round(this.position * 1e6) / 1e6;
+    return this.position;
+  }
+
+  reset(): void {
+    this.last = null;
+    this.position = 0;
+  }
 }
-
-/** Single-value settings: the command that writes one, the request that reads it, and its physical form. */
-const SETTINGS = {
-  response_time: { write: "set_response_time", read: "request_response_time" },
-  rated_speed: { write: "set_rated_speed", read: "request_rated_speed" },
-  resolution: { write: "set_resolution", read: "request_resolution" },
-  ratio: { write: "set_ratio", read: "request_ratio" },
-  control: { write: "set_control", read: "request_control" },
-  position_mode: { write: "set_position_mode", read: "request_position_mode" },
-  direction: { write: "set_direction", read: "request_direction" },
-} as const;
-
-/** response_time (us), rated_speed (RPM), resolution (count), ratio (n:1), control ("on"/"off"), position_mode ("absolute"/"relative"), direction ("ccw"/"cw"). */
-export type SettingName = keyof typeof SETTINGS;
-export const SETTING_NAMES = Object.keys(SETTINGS) as SettingName[];
-
-export interface MotorOptions {
-  /** Wait after a settings write before reading it back: the controller is busy writing EEPROM (default 300 ms). */
-  settleMs?: number;
-}
-
-const sleep = (ms: number): Promise<void> => new Promise((resolve) => setTimeout(resolve, ms));
 
 export class Motor {
-  settleMs: number;
+  readonly tracker = new TurnTracker();
+  /** The position mode, read before the first move (null: not known yet). */
+  private relative: boolean | null = null;
+  /** Whether control is off (null: not known yet). */
+  private released: boolean | null = null;
 
   constructor(
     readonly bus: Bus,
     readonly id: number,
-    options: MotorOptions = {},
-  ) {
-    this.settleMs = options.settleMs ?? 300;
+  ) {}
+
+  // -- builders (no I/O): for batches, `bus.send(...motors.map((m) => m.makeRun(30)))` ------
+
+  /** The position command for a signed target (CCW +), at `{ rpm }` (§1) or arriving in `{ seconds }` (§2). */
+  makeMoveTo(degrees: number, travel: Travel): MessageOf<"position_speed"> | MessageOf<"accel_position"> {
+    const rpm = travel.rpm;
+    const seconds = travel.seconds;
+    if ((rpm === undefined) === (seconds === undefined))
+      throw new TypeError("give exactly one of { rpm } (speed) or { seconds } (arrival time)");
+    const { direction, wire: position } = positionToWire(degrees);
+    if (rpm !== undefined)
+      return make("position_speed", this.id, { direction, position, speed: speedToWire(Math.abs(rpm)).wire });
+    return make("accel_position", this.id, { direction, position, arrival_time: arrivalToWire(seconds as number) });
+  }
+
+  /** The speed command: signed RPM (CCW +), reached in `rampSeconds` (§3). */
+  makeRun(rpm: number, rampSeconds = 0.1): MessageOf<"accel_speed"> {
+    const { direction, wire: speed } = speedToWire(rpm);
+    return make("accel_speed", this.id, { direction, speed, arrival_time: arrivalToWire(rampSeconds) });
+  }
+
+  makeRelease(): MessageOf<"set_control"> {
+    return make("set_control", this.id, { control: 1 });
+  }
+
+  // -- motion -----------------------------------------------------------------
+
+  /** Go to an absolute signed position (the device's frame, ±655.33°). In relative mode the step from here is sent. */
+  async moveTo(degrees: number, travel: Travel): Promise<void> {
+    let command = this.makeMoveTo(degrees, travel);
+    if (await this.isRelative()) command = this.makeMoveTo(degrees - (await this.readState()).devicePosition, travel);
+    await this.enableIfReleased();
+    await this.bus.send(command);
+  }
+
+  /** Move by a signed amount from where the motor is. */
+  async moveBy(degrees: number, travel: Travel): Promise<void> {
+    let command: Message;
+    if (await this.isRelative()) command = this.makeMoveTo(degrees, travel);
+    else command = this.makeMoveTo((await this.readState()).devicePosition + degrees, travel);
+    await this.enableIfReleased();
+    await this.bus.send(command);
+  }
+
+  /** Turn at a signed speed (CCW +), reached in `rampSeconds`. */
+  async run(rpm: number, rampSeconds = 0.1): Promise<void> {
+    const command = this.makeRun(rpm, rampSeconds);
+    await this.enableIfReleased();
+    await this.bus.send(command);
+  }
+
+  /** Control off: the motor is no longer driven and coasts to a stop. */
+  async release(): Promise<void> {
+    await this.bus.send(this.makeRelease());
+    this.released = true;
+  }
+
+  /** Control on, holding the present position: in absolute mode the present position becomes the target. */
+  async hold(): Promise<void> {
+    await this.bus.send(make("set_control", this.id, { control: 0 }));
+    this.released = false;
+    if (await this.isRelative()) return; // a relative target of 0 would be no move: control on holds here
+    const state = await this.readState();
+    await this.bus.send(this.makeMoveTo(state.devicePosition, { rpm: HOLD_RPM }));
+  }
+
+  // -- feedback -----------------------------------------------------------------
+
+  /** A MotorState from a position feedback answer (also for answers read another way). */
+  stateFrom(answer: MessageOf<"position_feedback">): MotorState {
+    const device = signedFromWire(answer.direction, answer.position, 0.01);
+    return {
+      id: this.id,
+      position: this.tracker.update(device),
+      devicePosition: device,
+      speed: fromWire(answer.speed, 0.1),
+      current: fromWire(answer.current, 0.1),
+      direction: answer.direction === 1 ? "cw" : "ccw",
+    };
+  }
+
+  async readState(): Promise<MotorState> {
+    return this.stateFrom(await this.bus.request(make("request_position", this.id, {})));
+  }
+
+  /** Signed speed in RPM (CCW +) from speed feedback (§20). */
+  async readSpeed(): Promise<number> {
+    const answer = await this.bus.request(make("request_speed", this.id, {}));
+    return signedFromWire(answer.direction, answer.speed, 0.1);
   }
 
   /** True if the controller answers a ping; false on silence (other errors are thrown). */
@@ -74,139 +180,83 @@ export class Motor {
     }
   }
 
-  /** Move to `degrees` (0..655.33, with `direction`) at `rpm`. */
-  moveTo(degrees: number, rpm: number, direction: Direction = "ccw"): Promise<void> {
-    return this.command(() =>
-      make("position_speed", this.id, {
-        direction: dir(direction),
-        position: toWire(degrees, 0.01),
-        speed: toWire(rpm, 0.1),
-      }),
-    );
+  // -- settings -------------------------------------------------------------------
+
+  /** A setting by name ("ratio", "position-kp", "control", "firmware", ...) in its physical unit or value name. */
+  async get(name: string): Promise<SettingValue> {
+    const spec = setting(name);
+    const raw = await this.readRaw(spec);
+    return settingFromWire(spec, raw);
   }
 
-  /** Move to `degrees`, arriving in `seconds` (smooth acceleration). */
-  moveIn(degrees: number, seconds: number, direction: Direction = "ccw"): Promise<void> {
-    return this.command(() =>
-      make("accel_position", this.id, {
-        direction: dir(direction),
-        position: toWire(degrees, 0.01),
-        arrival_time: toWire(seconds, 0.1),
-      }),
-    );
+  /** Every setting, reading each feedback request once. */
+  async readSettings(): Promise<Record<string, SettingValue>> {
+    const answers = new Map<string, Record<string, number>>();
+    const out: Record<string, SettingValue> = {};
+    for (const spec of SETTINGS) {
+      let answer = answers.get(spec.answer);
+      if (answer === undefined) {
+        answer = fieldsOf(await this.bus.request(make(spec.request as string, this.id, {})));
+        answers.set(spec.answer, answer);
+      }
+      const raw = answer[spec.field] ?? NaN;
+      this.remember(spec, raw);
+      out[spec.name] = settingFromWire(spec, raw);
+    }
+    return out;
   }
 
-  /** Run at `rpm`, reaching it in `rampSeconds`. */
-  run(rpm: number, direction: Direction = "ccw", rampSeconds = 0.1): Promise<void> {
-    return this.command(() =>
-      make("accel_speed", this.id, {
-        direction: dir(direction),
-        speed: toWire(rpm, 0.1),
-        arrival_time: toWire(rampSeconds, 0.1),
-      }),
-    );
+  /**
+   * Write a setting in its physical unit (or a value name), then read it back: VerifyError if
+   * the controller did not take it. Gains and rated current share one command: the others
+   * are read first and written unchanged. Returns the value as stored (12.34:1 -> 12.3).
+   */
+  async set(name: string, value: SettingValue): Promise<SettingValue> {
+    const spec = setting(name);
+    if (spec.command === null) throw new RangeError(`${spec.name} is read-only`);
+    const raw = settingToWire(spec, value);
+    let fields: Record<string, number> = { [spec.field]: raw };
+    if (spec.command === "set_position_gains" || spec.command === "set_speed_gains") {
+      const current = fieldsOf(await this.bus.request(make(spec.request as string, this.id, {})));
+      fields = { ...current, [spec.field]: raw };
+    }
+    await this.bus.send(make(spec.command as string, this.id, fields));
+    if (spec.name === "response-time") this.bus.responseTimesUs.delete(this.id); // old or new: the largest until read back
+    const back = await this.readRaw(spec); // the bus holds it until the EEPROM busy window has ended
+    if (back !== raw) {
+      this.relative = null;
+      throw new VerifyError(spec.name, settingFromWire(spec, raw), settingFromWire(spec, back));
+    }
+    return settingFromWire(spec, raw);
   }
 
-  /** Control off: the motor is no longer driven and coasts to a stop. */
-  release(): Promise<void> {
-    return this.bus.send(make("set_control", this.id, { control: 1 }));
+  // -- internals --------------------------------------------------------------------
+
+  private async readRaw(spec: SettingSpec): Promise<number> {
+    const answer = fieldsOf(await this.bus.request(make(spec.request as string, this.id, {})));
+    const raw = answer[spec.field] ?? NaN;
+    this.remember(spec, raw);
+    return raw;
   }
 
-  /** Control on: the motor holds its position. */
-  hold(): Promise<void> {
-    return this.bus.send(make("set_control", this.id, { control: 0 }));
+  private remember(spec: SettingSpec, raw: number): void {
+    if (spec.name === "response-time")
+      this.bus.responseTimesUs.set(this.id, raw * 100); // tighter deadlines
+    else if (spec.name === "position-mode") this.relative = raw === 1;
+    else if (spec.name === "control") this.released = raw === 1;
   }
 
-  async readState(): Promise<MotorState> {
-    const answer = await this.bus.request(make("request_position", this.id, {}));
-    return {
-      position: fromWire(answer.position, 0.01),
-      direction: answer.direction === 1 ? "cw" : "ccw",
-      speed: fromWire(answer.speed, 0.1),
-      current: fromWire(answer.current, 0.1),
-    };
+  private async isRelative(): Promise<boolean> {
+    if (this.relative === null) await this.readRaw(setting("position-mode"));
+    return this.relative === true;
   }
 
-  async readFirmware(): Promise<number> {
-    return (await this.bus.request(make("request_firmware", this.id, {}))).version;
-  }
-
-  /** A setting in physical units, or its value name for on/off-like settings. */
-  async readSetting(name: SettingName): Promise<number | string> {
-    const { read } = SETTINGS[name];
-    const answer = (await this.bus.request(make(read, this.id, {}))) as unknown as Record<string, number>;
-    const field = fieldOf(messageSpec(SETTINGS[name].write));
-    const raw = answer[field.name] ?? NaN;
-    const value = field.values[raw] ?? (field.unit !== "" ? fromWire(raw, field.scale) : raw);
-    if (name === "response_time" && typeof value === "number") this.bus.responseTimesUs.set(this.id, value); // tighter deadlines
-    return value;
-  }
-
-  /** Write a setting (physical value or value name), wait for the EEPROM write, read it back; VerifyError if it differs. */
-  async writeSetting(name: SettingName, value: number | string): Promise<void> {
-    const spec = messageSpec(SETTINGS[name].write);
-    const field = fieldOf(spec);
-    const raw = wireValue(field.values, field.unit !== "" ? field.scale : 1, value, `${name}`);
-    await this.bus.send(make(spec.name, this.id, { [field.name]: raw }));
-    if (name === "response_time") this.bus.responseTimesUs.delete(this.id); // old or new: assume the largest until read back
-    await sleep(this.settleMs);
-    const back = await this.readSetting(name);
-    const expected = field.values[raw] ?? (field.unit !== "" ? fromWire(raw, field.scale) : raw);
-    if (back !== expected) throw new VerifyError(name, expected, back);
-  }
-
-  async readGains(loop: "position" | "speed"): Promise<Gains> {
-    const answer = await this.bus.request(
-      make(loop === "position" ? "request_position_gains" : "request_speed_gains", this.id, {}),
-    );
-    return { kp: answer.kp, ki: answer.ki, kd: answer.kd, ratedCurrent: fromWire(answer.rated_current, 0.1) };
-  }
-
-  /** Write the gains of the position or speed loop (rated current in A) and verify them by reading back. */
-  async writeGains(loop: "position" | "speed", gains: Gains): Promise<void> {
-    const fields = { kp: gains.kp, ki: gains.ki, kd: gains.kd, rated_current: toWire(gains.ratedCurrent, 0.1) };
-    await this.bus.send(make(loop === "position" ? "set_position_gains" : "set_speed_gains", this.id, fields));
-    await sleep(this.settleMs);
-    const back = await this.readGains(loop);
-    const expected = { ...gains, ratedCurrent: fromWire(fields.rated_current, 0.1) };
-    if (JSON.stringify(back) !== JSON.stringify(expected)) throw new VerifyError(`${loop} gains`, expected, back);
-  }
-
-  private command(build: () => Parameters<Bus["send"]>[0]): Promise<void> {
-    try {
-      return this.bus.send(build());
-    } catch (err) {
-      return Promise.reject(err);
+  /** Control on if it is off (read once if unknown); the motion that follows waits out the busy window this starts. */
+  private async enableIfReleased(): Promise<void> {
+    if (this.released === null) await this.readRaw(setting("control"));
+    if (this.released === true) {
+      await this.bus.send(make("set_control", this.id, { control: 0 }));
+      this.released = false;
     }
   }
-}
-
-const dir = (direction: Direction): number => {
-  if (direction !== "ccw" && direction !== "cw")
-    throw new RangeError(`direction ${JSON.stringify(direction)}: use "ccw" or "cw"`);
-  return direction === "cw" ? 1 : 0;
-};
-
-function fieldOf(spec: ReturnType<typeof messageSpec>): ReturnType<typeof messageSpec>["fields"][number] {
-  const field = spec.fields[0];
-  if (field === undefined) throw new Error(`${spec.name} has no field`);
-  return field;
-}
-
-/** A value name ("off") or a physical number -> the wire integer. */
-function wireValue(
-  values: Readonly<Record<number, string>>,
-  scale: number,
-  value: number | string,
-  setting: string,
-): number {
-  if (typeof value === "string") {
-    const entry = Object.entries(values).find(([, n]) => n === value);
-    if (entry === undefined)
-      throw new RangeError(
-        `${setting} = ${JSON.stringify(value)}: use one of ${Object.values(values).join(", ") || "a number"}`,
-      );
-    return Number(entry[0]);
-  }
-  return toWire(value, scale);
 }

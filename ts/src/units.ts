@@ -9,6 +9,9 @@
  * speed in RPM (0.1 RPM), current in amperes (0.1 A), arrival time in seconds
  * (0.1 s), response time in microseconds (100 us), reduction ratio as n:1 (0.1).
  */
+import { LIMITS } from "./generated/host.js";
+import type { MessageName } from "./generated/messages.js";
+import { SPECS } from "./generated/tables.js";
 import type { FieldSpec } from "./schema.js";
 
 /** A number's shortest decimal form as digits * 10^exponent (exact, like Python's Decimal(repr(x))). */
@@ -66,4 +69,80 @@ export function describeRange(field: FieldSpec): string {
   const names = Object.entries(field.values);
   if (names.length > 0) text += ` (${names.map(([v, n]) => `${v} ${n}`).join(", ")})`;
   return text;
+}
+
+/** A physical value the protocol cannot carry: names the quantity, the value and what is allowed. */
+export class UnitRangeError extends RangeError {
+  override name = "UnitRangeError";
+  constructor(
+    /** e.g. "rpm", "ratio" */
+    readonly quantity: string,
+    readonly value: unknown,
+    /** e.g. "-6553.3..-0.1 or 0.1..6553.3 rpm" */
+    readonly allowed: string,
+  ) {
+    super(
+      `${quantity} = ${typeof value === "string" ? JSON.stringify(value) : String(value)} is out of range; allowed: ${allowed}`,
+    );
+  }
+}
+
+/** A signed physical value as the protocol carries it: a direction flag (0 CCW = +, 1 CW = -) and a magnitude. */
+export interface SignedWire {
+  direction: 0 | 1;
+  wire: number;
+}
+
+/**
+ * The motion quantities, with the limits of spec/host.json (LIMITS) and the fields of
+ * spec/protocol.json: the value is rounded to the nearest step first, then its wire
+ * value is range-checked (655.334 deg is 65533, allowed; 655.335 deg is 65534, refused).
+ */
+function scaleOf(message: MessageName, name: string): number {
+  const field = SPECS[message].fields.find((f) => f.name === name);
+  if (field === undefined) throw new Error(`spec: ${message} has no field ${name}`);
+  return field.scale;
+}
+function limits(scale: number, min: number, max: number) {
+  return { scale, min: toWire(min, scale), max: toWire(max, scale) };
+}
+const POSITION = limits(scaleOf("position_speed", "position"), 0, LIMITS.positionDeg);
+const SPEED = limits(scaleOf("accel_speed", "speed"), LIMITS.speedRpmMin, LIMITS.speedRpmMax);
+const ARRIVAL = limits(scaleOf("accel_speed", "arrival_time"), LIMITS.arrivalSMin, LIMITS.arrivalSMax);
+
+function finite(quantity: string, value: number, allowed: string): number {
+  if (typeof value !== "number" || !Number.isFinite(value)) throw new UnitRangeError(quantity, value, allowed);
+  return value;
+}
+
+/** Signed degrees (CCW +) -> direction and 0.01-degree magnitude of a position command (|degrees| <= 655.33). */
+export function positionToWire(degrees: number): SignedWire {
+  const allowed = `-${fromWire(POSITION.max, POSITION.scale)}..${fromWire(POSITION.max, POSITION.scale)} deg`;
+  const wire = Math.abs(toWire(finite("degrees", degrees, allowed), POSITION.scale));
+  if (wire > POSITION.max) throw new UnitRangeError("degrees", degrees, allowed);
+  return { direction: degrees < 0 ? 1 : 0, wire };
+}
+
+/** Signed RPM (CCW +) -> direction and 0.1-RPM magnitude of a speed command (0.1..6553.3 either way; 0 is refused). */
+export function speedToWire(rpm: number): SignedWire {
+  const top = fromWire(SPEED.max, SPEED.scale);
+  const low = fromWire(SPEED.min, SPEED.scale);
+  const allowed = `-${top}..-${low} or ${low}..${top} rpm (speed 0 is invalid: release or hold to stop)`;
+  const wire = Math.abs(toWire(finite("rpm", rpm, allowed), SPEED.scale));
+  if (wire < SPEED.min || wire > SPEED.max) throw new UnitRangeError("rpm", rpm, allowed);
+  return { direction: rpm < 0 ? 1 : 0, wire };
+}
+
+/** Seconds -> the 0.1-s arrival (or ramp) time of a motion command (0.1..25.5 s). */
+export function arrivalToWire(seconds: number): number {
+  const allowed = `${fromWire(ARRIVAL.min, ARRIVAL.scale)}..${fromWire(ARRIVAL.max, ARRIVAL.scale)} s`;
+  const wire = toWire(finite("seconds", seconds, allowed), ARRIVAL.scale);
+  if (wire < ARRIVAL.min || wire > ARRIVAL.max) throw new UnitRangeError("seconds", seconds, allowed);
+  return wire;
+}
+
+/** A direction flag and a magnitude (as feedback reports them) -> the signed physical value (CW is negative). */
+export function signedFromWire(direction: number, wire: number, scale: number): number {
+  const magnitude = fromWire(wire, scale);
+  return direction === 1 ? -magnitude : magnitude;
 }

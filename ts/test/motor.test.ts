@@ -2,78 +2,202 @@ import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { VerifyError } from "../src/bus/errors.js";
 import { decode, encode, type Message, make, toRecord } from "../src/codec.js";
-import { FieldRangeError } from "../src/errors.js";
-import { Motor } from "../src/motor.js";
+import { HOLD_RPM, Motor, TurnTracker } from "../src/motor.js";
+import { UnitRangeError } from "../src/units.js";
 import { FakePort } from "./fake-port.js";
 
-/** A minimal controller at ID 2: stores rated speed and control (unless `deaf`), answers their requests. */
-function controller(options: { deaf?: boolean } = {}) {
-  const state = { rated_speed: 3000, control: 0 };
+/** A minimal controller at ID 2 that stores its settings (unless `deaf`) and reports a position. */
+function controller(options: { deaf?: boolean; relative?: boolean; released?: boolean } = {}) {
+  const state = {
+    rated_speed: 3000,
+    ratio: 10,
+    control: options.released === true ? 1 : 0,
+    position_mode: options.relative === true ? 1 : 0,
+    gains: { kp: 50, ki: 0, kd: 10, rated_current: 50 },
+    direction: 1,
+    position: 18001,
+  };
   const sent: Message[] = [];
   const port = new FakePort((written) => {
     const m = decode(written);
     sent.push(m);
-    if (m.id !== 2 && m.id !== 255) return null;
-    if (m.name === "set_rated_speed" && options.deaf !== true) state.rated_speed = m.rated_speed;
-    if (m.name === "set_control") state.control = m.control;
-    if (m.name === "request_rated_speed") return encode(make("rated_speed", 2, { rated_speed: state.rated_speed }));
-    if (m.name === "request_control") return encode(make("control", 2, { control: state.control }));
-    if (m.name === "request_position")
-      return encode(make("position_feedback", 2, { direction: 1, position: 18001, speed: 1234, current: 15 }));
-    return null;
+    if (m.id !== 2) return null;
+    const stores = options.deaf !== true;
+    switch (m.name) {
+      case "set_rated_speed":
+        if (stores) state.rated_speed = m.rated_speed;
+        return null;
+      case "set_ratio":
+        if (stores) state.ratio = m.ratio;
+        return null;
+      case "set_control":
+        state.control = m.control;
+        return null;
+      case "set_position_gains":
+        if (stores) state.gains = { kp: m.kp, ki: m.ki, kd: m.kd, rated_current: m.rated_current };
+        return null;
+      case "request_rated_speed":
+        return encode(make("rated_speed", 2, { rated_speed: state.rated_speed }));
+      case "request_ratio":
+        return encode(make("ratio", 2, { ratio: state.ratio }));
+      case "request_control":
+        return encode(make("control", 2, { control: state.control }));
+      case "request_position_mode":
+        return encode(make("position_mode", 2, { position_mode: state.position_mode }));
+      case "request_position_gains":
+        return encode(make("position_gains", 2, state.gains));
+      case "request_position":
+        return encode(
+          make("position_feedback", 2, {
+            direction: state.direction,
+            position: state.position,
+            speed: 1234,
+            current: 15,
+          }),
+        );
+      case "request_speed":
+        return encode(make("speed_feedback", 2, { direction: 1, speed: 255, position: 1800, current: 3 }));
+      default:
+        return null;
+    }
   });
-  return { port, sent, state };
+  const bus = new Bus(port, { timing: { latencyMs: 10 }, busyWindowMs: 1 });
+  const commands = () => sent.filter((m) => !m.name.startsWith("request_")).map(toRecord);
+  return { port, bus, sent, state, commands, motor: new Motor(bus, 2) };
 }
 
-describe("Motor", () => {
-  it("sends motion in physical units, rounded by the shared rule", async () => {
-    const { port, sent } = controller();
-    const motor = new Motor(new Bus(port, { timing: { latencyMs: 10 } }), 2);
-    await motor.moveTo(180.005, 100, "cw");
-    await motor.moveIn(90, 1.5);
-    await motor.run(2.55, "ccw", 2);
+describe("Motor: motion in signed units, as the Python library", () => {
+  it("sends signed degrees and RPM as direction and magnitude, rounded by the shared rule", async () => {
+    const { motor, commands } = controller();
+    await motor.moveTo(-180.005, { rpm: 100 });
+    await motor.moveTo(90, { seconds: 1.5 });
+    await motor.run(-2.55, 2);
+    await motor.run(30);
     await motor.release();
-    expect(sent.map(toRecord)).toEqual([
+    expect(commands()).toEqual([
       { id: 2, message: "position_speed", direction: 1, position: 18001, speed: 1000 },
       { id: 2, message: "accel_position", direction: 0, position: 9000, arrival_time: 15 },
-      { id: 2, message: "accel_speed", direction: 0, speed: 26, arrival_time: 20 },
+      { id: 2, message: "accel_speed", direction: 1, speed: 26, arrival_time: 20 },
+      { id: 2, message: "accel_speed", direction: 0, speed: 300, arrival_time: 1 },
       { id: 2, message: "set_control", control: 1 },
     ]);
   });
 
-  it("refuses values outside the wire range before sending anything", async () => {
-    const { port, sent } = controller();
-    const motor = new Motor(new Bus(port), 2);
-    await expect(motor.moveTo(700, 100)).rejects.toThrow(FieldRangeError);
-    await expect(motor.moveTo(700, 100)).rejects.toThrow(
-      /position = 70000 is out of range; allowed: 0\.\.65533 \(0\.\.655\.33 deg\)/,
+  it("refuses values outside the limits before sending anything", async () => {
+    const { motor, sent } = controller();
+    await expect(motor.moveTo(655.335, { rpm: 100 })).rejects.toThrow(UnitRangeError);
+    await expect(motor.moveTo(-700, { rpm: 100 })).rejects.toThrow(
+      /degrees = -700 is out of range; allowed: -655\.33\.\.655\.33 deg/,
     );
-    await expect(motor.run(0, "cw")).rejects.toThrow(/speed = 0 is out of range/);
+    await expect(motor.run(0)).rejects.toThrow(/rpm = 0 is out of range/);
+    await expect(motor.run(10, 30)).rejects.toThrow(/seconds = 30 is out of range; allowed: 0\.1\.\.25\.5 s/);
+    await expect(motor.moveTo(10, {} as { rpm: number })).rejects.toThrow(/exactly one of/);
+    expect(sent).toEqual([]);
+    expect(motor.makeMoveTo(655.334, { rpm: 1 })).toMatchObject({ position: 65533 }); // rounded, then checked
+  });
+
+  it("moves by a signed amount from where the motor is (absolute mode)", async () => {
+    const { motor, commands } = controller(); // at -180.01
+    await motor.moveBy(10, { rpm: 50 });
+    expect(commands()).toEqual([{ id: 2, message: "position_speed", direction: 1, position: 17001, speed: 500 }]);
+  });
+
+  it("in relative mode, moveTo sends the step from here and moveBy the amount", async () => {
+    const { motor, commands } = controller({ relative: true }); // at -180.01
+    await motor.moveTo(-170.01, { rpm: 50 });
+    await motor.moveBy(-5, { rpm: 50 });
+    expect(commands()).toEqual([
+      { id: 2, message: "position_speed", direction: 0, position: 1000, speed: 500 },
+      { id: 2, message: "position_speed", direction: 1, position: 500, speed: 500 },
+    ]);
+  });
+
+  it("switches control on before moving a released motor", async () => {
+    const { motor, commands } = controller({ released: true });
+    await motor.run(-12.5);
+    expect(commands()).toEqual([
+      { id: 2, message: "set_control", control: 0 },
+      { id: 2, message: "accel_speed", direction: 1, speed: 125, arrival_time: 1 },
+    ]);
+  });
+
+  it("hold switches control on and re-targets the present position (absolute mode)", async () => {
+    const { motor, commands } = controller({ released: true });
+    await motor.hold();
+    expect(commands()).toEqual([
+      { id: 2, message: "set_control", control: 0 },
+      { id: 2, message: "position_speed", direction: 1, position: 18001, speed: HOLD_RPM * 10 },
+    ]);
+  });
+
+  it("hold in relative mode only switches control on (a relative target would move)", async () => {
+    const { motor, commands } = controller({ relative: true });
+    await motor.hold();
+    expect(commands()).toEqual([{ id: 2, message: "set_control", control: 0 }]);
+  });
+});
+
+describe("Motor: feedback", () => {
+  it("reads the state in signed degrees, RPM and amperes", async () => {
+    const { motor } = controller();
+    expect(await motor.readState()).toEqual({
+      id: 2,
+      position: -180.01,
+      devicePosition: -180.01,
+      speed: 123.4,
+      current: 1.5,
+      direction: "cw",
+    });
+    expect(await motor.readSpeed()).toBe(-25.5);
+  });
+
+  it("tracks turns across the counter's wrap", async () => {
+    const { motor, state } = controller();
+    state.direction = 0;
+    state.position = 65000; // 650 deg CCW
+    expect((await motor.readState()).position).toBe(650);
+    state.position = 500; // wrapped: 5 deg on the device
+    expect(await motor.readState()).toMatchObject({ devicePosition: 5, position: 660.36 });
+    const tracker = new TurnTracker();
+    expect([10, -300, 300, -10].map((d) => tracker.update(d))).toEqual([10, -300, -355.36, -665.36]);
+  });
+});
+
+describe("Motor: settings by name, in physical units", () => {
+  it("writes a setting, verifies it by reading back and returns what was stored", async () => {
+    const { motor, state } = controller();
+    expect(await motor.set("rated-speed", 2000)).toBe(2000);
+    expect(state.rated_speed).toBe(2000);
+    expect(await motor.set("ratio", 12.34)).toBe(12.3);
+    expect(await motor.get("ratio")).toBe(12.3);
+    expect(await motor.set("control", "off")).toBe("off");
+    expect(await motor.get("control")).toBe("off");
+  });
+
+  it("writes one gain and keeps the others (read-modify-write)", async () => {
+    const { motor, state } = controller();
+    await motor.set("position_kp", 60);
+    await motor.set("position-rated-current", 4.5);
+    expect(state.gains).toEqual({ kp: 60, ki: 0, kd: 10, rated_current: 45 });
+  });
+
+  it("refuses values the setting cannot take, before sending anything", async () => {
+    const { motor, sent } = controller();
+    await expect(motor.set("control", "sideways")).rejects.toThrow(/allowed: on or off/);
+    await expect(motor.set("position-kp", 2.5)).rejects.toThrow(
+      /position-kp = 2\.5 is out of range; allowed: 1\.\.254/,
+    );
+    await expect(motor.set("ratio", 0.04)).rejects.toThrow(UnitRangeError);
+    await expect(motor.set("firmware", 3)).rejects.toThrow(/read-only/);
+    await expect(motor.set("speed", 3)).rejects.toThrow(/unknown setting "speed"; settings: position-kp/);
     expect(sent).toEqual([]);
   });
 
-  it("reads the state in physical units", async () => {
-    const motor = new Motor(new Bus(controller().port, { timing: { latencyMs: 10 } }), 2);
-    expect(await motor.readState()).toEqual({ position: 180.01, direction: "cw", speed: 123.4, current: 1.5 });
-  });
-
-  it("writes a setting and verifies it by reading it back", async () => {
-    const { port, state } = controller();
-    const motor = new Motor(new Bus(port, { timing: { latencyMs: 10 } }), 2, { settleMs: 1 });
-    await motor.writeSetting("rated_speed", 2000);
-    expect(state.rated_speed).toBe(2000);
-    await motor.writeSetting("control", "off");
-    expect(await motor.readSetting("control")).toBe("off");
-    await expect(motor.writeSetting("control", "sideways")).rejects.toThrow(/use one of on, off/);
-  });
-
   it("raises VerifyError when the controller did not take the setting", async () => {
-    const motor = new Motor(new Bus(controller({ deaf: true }).port, { timing: { latencyMs: 10 } }), 2, {
-      settleMs: 1,
-    });
-    const failure = motor.writeSetting("rated_speed", 2000);
+    const { motor } = controller({ deaf: true });
+    const failure = motor.set("rated-speed", 2000);
     await expect(failure).rejects.toBeInstanceOf(VerifyError);
-    await expect(failure).rejects.toThrow(/rated_speed: wrote 2000 but the controller reports 3000/);
+    await expect(failure).rejects.toThrow(/rated-speed: wrote 2000 but the controller reports 3000/);
   });
 
   it("says false to a ping nobody answers", async () => {

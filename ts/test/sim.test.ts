@@ -72,25 +72,27 @@ describe.skipIf(!present)("against the simulator's pseudo-terminal", () => {
   });
 
   it("writes settings and verifies them by reading back", async () => {
-    const motor = new Motor(bus, 1, { settleMs: 120 });
-    await motor.writeSetting("rated_speed", 2000);
-    await motor.writeSetting("ratio", 12.5);
-    await motor.writeSetting("response_time", 300);
-    await motor.writeSetting("position_mode", "relative");
-    await motor.writeSetting("position_mode", "absolute");
-    expect(await motor.readSetting("rated_speed")).toBe(2000);
-    expect(await motor.readSetting("ratio")).toBe(12.5);
-    expect(await motor.readSetting("response_time")).toBe(300);
-    await motor.writeGains("position", { kp: 60, ki: 1, kd: 12, ratedCurrent: 4.5 });
-    expect(await motor.readGains("position")).toEqual({ kp: 60, ki: 1, kd: 12, ratedCurrent: 4.5 });
+    const motor = new Motor(bus, 1);
+    expect(await motor.set("rated-speed", 2000)).toBe(2000);
+    expect(await motor.set("ratio", 12.5)).toBe(12.5);
+    expect(await motor.set("response-time", 300)).toBe(300);
+    expect(await motor.set("position-mode", "relative")).toBe("relative");
+    await motor.set("position-mode", "absolute");
+    expect(await motor.get("rated-speed")).toBe(2000);
+    expect(await motor.get("ratio")).toBe(12.5);
+    expect(await motor.get("response-time")).toBe(300);
+    await motor.set("position-kp", 60);
+    await motor.set("position-rated-current", 4.5);
+    const settings = await motor.readSettings();
+    expect(settings).toMatchObject({ "position-kp": 60, "position-rated-current": 4.5, "position-mode": "absolute" });
   });
 
   it("moves a motor: the feedback follows the command and settles at the target", async () => {
-    const motor = new Motor(bus, 0, { settleMs: 120 });
+    const motor = new Motor(bus, 0);
     const start = await motor.readState();
     // the simulator reports whole encoder steps (22.5 deg at the default resolution 4, ratio 1:1)
     const target = start.position > 90 ? 45 : 180;
-    await motor.moveTo(target, 300);
+    await motor.moveTo(target, { rpm: 300 });
     const seen: number[] = [];
     const deadline = Date.now() + 15_000;
     let state = start;
@@ -104,7 +106,7 @@ describe.skipIf(!present)("against the simulator's pseudo-terminal", () => {
     expect(seen.some((p) => Math.abs(p - start.position) > 1 && Math.abs(p - target) > 1)).toBe(true); // it travelled
     await motor.release();
     await new Promise((r) => setTimeout(r, 100));
-    expect(await motor.readSetting("control")).toBe("off");
+    expect(await motor.get("control")).toBe("off");
   });
 
   it("follows a controller to a new baud rate", async () => {

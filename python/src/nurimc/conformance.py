@@ -12,7 +12,12 @@ import sys
 from collections.abc import Iterator
 from typing import Any, BinaryIO
 
-from .protocol import DecodeError, EncodeError, StreamParser, decode, make
+from .client.core import BusCore
+from .errors import ValueOutOfRange
+from .motor import MotorProcedures
+from .multiturn import signed_degrees
+from .protocol import DecodeError, EncodeError, StreamParser, decode, make, units
+from .settings import SETTINGS
 
 MAX_LINE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 64
@@ -108,6 +113,78 @@ def _parse(request: dict[str, Any]) -> dict[str, Any]:
     return {"frames": [m.to_dict() for m in frames], "dropped_bytes": parser.stats.dropped_bytes}
 
 
+# The units ops (conformance/README.md, "units"): the library's own conversions. The motion
+# builders only check and convert; this handle never touches a bus.
+_MOTION = MotorProcedures(BusCore(), 1)
+_QUANTITIES = frozenset(["degrees", "rpm", "seconds", *SETTINGS])
+
+
+class _UnitError(Exception):
+    def __init__(self, kind: str) -> None:
+        super().__init__(kind)
+        self.kind = kind
+
+
+def _number(value: object) -> float | None:
+    """A JSON number as the double every JSON reader makes of it (None: not a number)."""
+    if isinstance(value, _Float):
+        return float(value.text)
+    if isinstance(value, float):  # a request built in Python (answer() called directly)
+        return value
+    if isinstance(value, int) and not isinstance(value, bool):
+        return float(value) if abs(value) < _HUGE else float("inf") if value > 0 else float("-inf")
+    return None
+
+
+def _integer_in(value: object, top: int) -> int:
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise _UnitError("type")
+    if not 0 <= value <= top:
+        raise _UnitError("range")
+    return value
+
+
+def _quantity(request: dict[str, Any]) -> str:
+    quantity = request.get("quantity")
+    if not isinstance(quantity, str) or quantity not in _QUANTITIES:
+        raise _UnitError("unknown_quantity")
+    return quantity
+
+
+def _to_wire(request: dict[str, Any]) -> dict[str, Any]:
+    quantity = _quantity(request)
+    value = request.get("value")
+    number = _number(value)
+    choice = quantity in SETTINGS and bool(SETTINGS[quantity].spec.values)
+    if number is None and not (isinstance(value, str) and choice):
+        raise _UnitError("type")
+    try:
+        if number is None:  # a value name of a choice setting
+            return {"wire": SETTINGS[quantity].to_wire(value)}
+        if quantity == "degrees":
+            move = _MOTION.make_move_to(number, rpm=1).fields()
+            return {"direction": move["direction"], "wire": move["position"]}
+        if quantity == "rpm":
+            run = _MOTION.make_run(number).fields()
+            return {"direction": run["direction"], "wire": run["speed"]}
+        if quantity == "seconds":
+            return {"wire": _MOTION.make_run(1, ramp_seconds=number).fields()["arrival_time"]}
+        return {"wire": SETTINGS[quantity].to_wire(number)}
+    except ValueOutOfRange:
+        raise _UnitError("range") from None
+
+
+def _from_wire(request: dict[str, Any]) -> dict[str, Any]:
+    quantity = _quantity(request)
+    wire = _integer_in(request.get("wire"), 65535)
+    if quantity in ("degrees", "rpm"):
+        direction = _integer_in(request.get("direction"), 1)
+        return {"value": signed_degrees(direction, units.from_wire(wire, 0.01 if quantity == "degrees" else 0.1))}
+    if quantity == "seconds":
+        return {"value": units.from_wire(wire, 0.1)}
+    return {"value": SETTINGS[quantity].to_physical(wire)}
+
+
 def answer(request: Any) -> dict[str, Any]:
     if not isinstance(request, dict):
         return {"error": "bad_request", "detail": "each line must be a JSON object"}
@@ -125,6 +202,12 @@ def answer(request: Any) -> dict[str, Any]:
             return {"hex": make(request["message"], request["id"], **fields).encode().hex()}
         if op == "parse":
             return _parse(request)
+        if op == "to_wire":
+            return _to_wire(request)
+        if op == "from_wire":
+            return _from_wire(request)
+    except _UnitError as err:
+        return {"error": err.kind}
     except DecodeError as err:
         return {"error": err.kind}
     except EncodeError as err:

@@ -9,6 +9,7 @@ without sending it, for batches: `bus.send(*(m.make_run(30) for m in motors))`.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Concatenate, Generic, ParamSpec, TypeVar, overload
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
     from .client.sync import Bus
 
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest position a command can carry, degrees
+POSITION_WIRE_MAX = units.degrees_to_wire(POSITION_LIMIT)
 SPEED_MIN, SPEED_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
 ARRIVAL_MIN, ARRIVAL_MAX = LIMITS["arrival_s_min"], LIMITS["arrival_s_max"]
 EEPROM_SETTLE = 0.05  # kept for callers; the bus core now waits out each ID's busy window itself
@@ -84,9 +86,10 @@ class MotorProcedures:
         """Position command for a signed target (CCW +). Give rpm (§1) or arrival seconds (§2)."""
         if (rpm is None) == (seconds is None):
             raise InputError("give exactly one of rpm= (speed) or seconds= (arrival time)")
-        if abs(degrees) > POSITION_LIMIT:
+        # rounded to the nearest step first, then range-checked (655.334 is 65533, allowed)
+        position = units.degrees_to_wire(abs(degrees)) if math.isfinite(degrees) else POSITION_WIRE_MAX + 1
+        if position > POSITION_WIRE_MAX:
             raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
-        position = units.degrees_to_wire(abs(degrees))
         if rpm is not None:
             return PositionSpeed(self.id, _direction(degrees), position, self._speed_wire("move", rpm))
         assert seconds is not None
@@ -104,14 +107,14 @@ class MotorProcedures:
         return SetControl(self.id, 1)
 
     def _speed_wire(self, what: str, rpm: float) -> int:
-        raw = units.rpm_to_wire(abs(rpm))
+        raw = units.rpm_to_wire(abs(rpm)) if math.isfinite(rpm) else 0
         if not 1 <= raw <= 65533:
             raise ValueOutOfRange(what, "rpm", rpm, f"{SPEED_MIN}..{SPEED_MAX} rpm")
         return raw
 
     @staticmethod
     def _seconds_wire(seconds: float) -> int:
-        raw = units.seconds_to_wire(seconds)
+        raw = units.seconds_to_wire(seconds) if math.isfinite(seconds) else 0
         if not 1 <= raw <= 255:
             raise ValueOutOfRange("motion", "seconds", seconds, f"{ARRIVAL_MIN}..{ARRIVAL_MAX} s")
         return raw

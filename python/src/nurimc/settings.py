@@ -6,10 +6,14 @@ share a command (Kp, Ki, Kd and rated current) are written together, read-modify
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from .errors import UnknownSetting, ValueOutOfRange
 from .protocol import SPECS, FieldSpec, MessageSpec, units
+from .protocol._settings import SETTINGS as _SPEC_SETTINGS
+
+_INPUT_RULES = {s["name"]: s["input"] for s in _SPEC_SETTINGS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,6 +39,11 @@ class Setting:
         return request
 
     @property
+    def input(self) -> str:
+        """How a typed value becomes a wire value: integer, quantize or choice (spec/settings.json)."""
+        return str(_INPUT_RULES[self.name])
+
+    @property
     def unit(self) -> str:
         return {"us": "µs", "ratio": ":1", "count": ""}.get(self.spec.unit, self.spec.unit)
 
@@ -48,7 +57,14 @@ class Setting:
             number = units.parse_quantity(value, spec.unit) if isinstance(value, str) else float(value)  # type: ignore[arg-type]
         except (TypeError, ValueError):
             raise ValueOutOfRange(self.name, "value", value, self.describe_range()) from None
-        raw = units.to_wire(number, spec.scale) if spec.unit else round(number)
+        if isinstance(value, bool) or not math.isfinite(number):
+            raise ValueOutOfRange(self.name, "value", value, self.describe_range())
+        if self.input == "quantize":
+            raw = units.to_wire(number, spec.scale)
+        elif number.is_integer():  # integer and choice: a fraction is refused (spec/settings.json)
+            raw = int(number)
+        else:
+            raise ValueOutOfRange(self.name, "value", value, self.describe_range())
         if not spec.min <= raw <= spec.max:
             raise ValueOutOfRange(self.name, "value", value, self.describe_range())
         return raw

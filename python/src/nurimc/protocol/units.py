@@ -12,13 +12,18 @@ response time in microseconds (100 us), reduction ratio as n:1 (0.1).
 
 from __future__ import annotations
 
-from decimal import ROUND_HALF_UP, Decimal
+import math
+from decimal import ROUND_HALF_UP, Decimal, localcontext
 
 
 def to_wire(value: float, scale: float) -> int:
     """Physical value -> wire integer (nearest step, halves away from zero)."""
-    steps = Decimal(repr(value)) / Decimal(repr(scale))
-    return int(steps.quantize(Decimal(1), rounding=ROUND_HALF_UP))
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError(f"{value} is not a finite number")
+    with localcontext() as ctx:
+        ctx.prec = 800  # exact for every double: 1e30 must not overflow the default 28 digits
+        steps = Decimal(repr(value)) / Decimal(repr(scale))
+        return int(steps.quantize(Decimal(1), rounding=ROUND_HALF_UP))
 
 
 def from_wire(raw: int, scale: float) -> float:

@@ -32,8 +32,7 @@ export class DirectLink {
       for (const id of this.watched) {
         try {
           const s = await this.motor(id).readState();
-          const signed = s.direction === "cw" ? -s.position : s.position;
-          rows.push([id, (performance.now() - this.origin) / 1000, signed, s.speed, s.current, signed]);
+          rows.push([id, (performance.now() - this.origin) / 1000, s.position, s.speed, s.current, s.devicePosition]);
         } catch (error) {
           this.emit("motor_error", { id, message: error.message });
         }
@@ -45,7 +44,6 @@ export class DirectLink {
   }
 
   async request(op, args = {}) {
-    const signed = (value) => [Math.abs(value), value < 0 ? "cw" : "ccw"];
     switch (op) {
       case "discover": {
         const found = [];
@@ -59,7 +57,7 @@ export class DirectLink {
               found: found.map((m) => m.id),
             });
           if (await this.motor(id).ping())
-            found.push({ id, baudrate: this.baudRate, firmware: await this.motor(id).readFirmware() });
+            found.push({ id, baudrate: this.baudRate, firmware: await this.motor(id).get("firmware") });
         }
         return { motors: found };
       }
@@ -67,16 +65,13 @@ export class DirectLink {
         this.watched = args.ids;
         return { watching: args.ids };
       case "move": {
-        if (args.relative) throw new Error("move by is not available in direct mode; give a target position");
-        const [degrees, direction] = signed(args.degrees);
-        await (args.rpm != null
-          ? this.motor(args.id).moveTo(degrees, args.rpm, direction)
-          : this.motor(args.id).moveIn(degrees, args.seconds, direction));
+        const travel = args.rpm != null ? { rpm: args.rpm } : { seconds: args.seconds };
+        const motor = this.motor(args.id);
+        await (args.relative ? motor.moveBy(args.degrees, travel) : motor.moveTo(args.degrees, travel));
         return { id: args.id };
       }
       case "run": {
-        const [rpm, direction] = signed(args.rpm);
-        await this.motor(args.id).run(rpm, direction, args.ramp ?? 0.5);
+        await this.motor(args.id).run(args.rpm, args.ramp ?? 0.5);
         return { id: args.id };
       }
       case "release":
@@ -90,7 +85,7 @@ export class DirectLink {
         const control = {};
         for (const id of this.motors.keys())
           control[id] = await this.motor(id)
-            .readSetting("control")
+            .get("control")
             .catch((e) => `unknown: ${e.message}`);
         this.emit("estop", { rates: [this.baudRate], control });
         return { rates: [this.baudRate], control };
