@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 from ..errors import CallTimeout
+from ..motor import Motor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
 from .actions import Action, Procedure, Receive, Wait, WaitUntil
@@ -201,5 +202,3 @@ class Bus:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-
-from ..motor import Motor  # noqa: E402 - Motor needs Bus for its type, Bus hands out Motors
