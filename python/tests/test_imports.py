@@ -29,6 +29,16 @@ def module_names() -> dict[str, tuple[Path, bool]]:
     return out
 
 
+def lazy_import(node: ast.AST) -> str | None:
+    """The module named by importlib.import_module("...", ...) (the lazy top level), if node is one."""
+    if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)):
+        return None
+    if node.func.attr != "import_module" or not node.args:
+        return None
+    first = node.args[0]
+    return first.value if isinstance(first, ast.Constant) and isinstance(first.value, str) else None
+
+
 def imports_of(name: str, path: Path, package: bool, modules: dict[str, tuple[Path, bool]]) -> set[str]:
     """The nurimc modules `name` imports anywhere in its source."""
     here = name if package else name.rpartition(".")[0]
@@ -46,17 +56,14 @@ def imports_of(name: str, path: Path, package: bool, modules: dict[str, tuple[Pa
             for alias in node.names:
                 submodule = f"{source}.{alias.name}"
                 found.add(submodule if submodule in modules else source)
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "import_module":
-            # importlib.import_module("...", __name__): the lazy top level
-            if node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str):
-                target = node.args[0].value
-                if target.startswith("."):
-                    level = len(target) - len(target.lstrip("."))
-                    base = here.split(".")
-                    base = base[: len(base) - level + 1]
-                    rest = target.lstrip(".")
-                    target = ".".join([*base, rest] if rest else base)
-                found.add(target)
+        elif (target := lazy_import(node)) is not None:
+            if target.startswith("."):
+                level = len(target) - len(target.lstrip("."))
+                base = here.split(".")
+                base = base[: len(base) - level + 1]
+                rest = target.lstrip(".")
+                target = ".".join([*base, rest] if rest else base)
+            found.add(target)
     return {m for m in found if m in modules and m != name}
 
 

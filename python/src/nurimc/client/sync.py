@@ -163,6 +163,10 @@ class Bus:
 
     @baudrate.setter
     def baudrate(self, rate: int) -> None:
+        self.set_baudrate(rate)
+
+    def set_baudrate(self, rate: int) -> None:
+        """Switch the host's rate (as AsyncBus.set_baudrate; the property setter does the same)."""
         self.run(self.core.set_baud(rate))
 
     @property
@@ -201,4 +205,3 @@ class Bus:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
