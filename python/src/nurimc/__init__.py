@@ -20,6 +20,7 @@ __version__ = "0.1.0"
 # name -> module that defines it (relative to this package)
 _LAZY = {
     "AsyncBus": ".client.aio",
+    "AsyncGroup": ".group",
     "AsyncMotor": ".client.aio",
     "Bus": ".client.sync",
     "Group": ".group",
@@ -39,6 +40,7 @@ _LAZY = {
 
 __all__ = [
     "AsyncBus",
+    "AsyncGroup",
     "AsyncMotor",
     "Bus",
     "ConfirmationRequired",
@@ -71,7 +73,7 @@ if TYPE_CHECKING:
         SettingNotApplied,
         UnexpectedAnswer,
     )
-    from .group import Group
+    from .group import AsyncGroup, Group
     from .motor import Motor, MotorState
 
 

@@ -82,6 +82,17 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
     except ValueError as err:
         raise InputError(str(err)) from None
     old = core.baudrate
+    try:
+        return (yield from _change_baud(core, device_id, rate, index, old))
+    except (GeneratorExit, SettingNotApplied):  # closed: no I/O any more; not applied: the bus is where it says
+        raise
+    except BaseException:  # an I/O error, a timeout or a cancellation thrown in: the host goes back (docs/drivers.md)
+        if core.baudrate != old:
+            yield from core.set_baud(old)
+        raise
+
+
+def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int) -> Procedure[int]:
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
     yield from core.tell(SetBaud(device_id, index))

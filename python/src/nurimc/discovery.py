@@ -103,12 +103,13 @@ def discover(
                 result.append(Found(f.id, f.baudrate, answer.fields()["version"], f.collision))
             except (NoAnswer, UnexpectedAnswer):
                 result.append(f)
-    except GeneratorExit:  # abandoned by its driver: no I/O possible any more
+    except GeneratorExit:  # closed by its driver: no I/O possible any more (finally still runs)
         raise
-    except BaseException:
+    except BaseException:  # an I/O error, a timeout or a cancellation thrown in (docs/drivers.md)
         core.timing = original_timing
         yield from core.set_baud(original)
         raise
-    core.timing = original_timing
+    finally:
+        core.timing = original_timing
     yield from core.set_baud(original)
     return result

@@ -22,6 +22,7 @@ from .protocol import Command, RequestPosition, SetResponseTime
 from .settings import SETTINGS
 
 if TYPE_CHECKING:
+    from .client.aio import AsyncBus
     from .client.sync import Bus
 
 FEEDBACK_LENGTH = 12  # bytes of a position feedback frame
@@ -108,3 +109,27 @@ class Group:
         if self.slot is None:
             raise UsageError("call stagger() first: the motors' response times must be spaced")
         return self.bus.run(read_states_broadcast([m.procedures for m in self.motors], self.slot))
+
+
+class AsyncGroup:
+    """Motors of one AsyncBus used together: Group's methods, awaited."""
+
+    def __init__(self, bus: AsyncBus, ids: Sequence[int], product: str = "mc") -> None:
+        self.bus = bus
+        self.motors = [bus.motor(i, product) for i in ids]
+        self.slot: int | None = None
+
+    async def command(self, commands: Sequence[Command]) -> None:
+        await self.bus.send(*commands)
+
+    async def read_states(self) -> dict[int, MotorState | Exception]:
+        return await self.bus.run(read_states([m.procedures for m in self.motors]))
+
+    async def stagger(self) -> int:
+        self.slot = await self.bus.run(stagger([m.procedures for m in self.motors], self.bus.baudrate))
+        return self.slot
+
+    async def read_states_broadcast(self) -> dict[int, MotorState | Exception]:
+        if self.slot is None:
+            raise UsageError("call stagger() first: the motors' response times must be spaced")
+        return await self.bus.run(read_states_broadcast([m.procedures for m in self.motors], self.slot))

@@ -12,7 +12,7 @@ import functools
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Concatenate, Generic, ParamSpec, TypeVar, overload
+from typing import Any, Concatenate, Generic, ParamSpec, Protocol, TypeVar, overload
 
 from .client.actions import Now, Procedure, Wait
 from .client.core import BusCore
@@ -38,10 +38,6 @@ from .protocol import (
 )
 from .protocol.host import BUSY_POLL_INTERVAL, LIMITS
 from .settings import SETTINGS, Setting, setting
-
-if TYPE_CHECKING:
-    from .client.aio import AsyncBus
-    from .client.sync import Bus
 
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest position a command can carry, degrees
 POSITION_WIRE_MAX = units.degrees_to_wire(POSITION_LIMIT)
@@ -281,16 +277,33 @@ P = ParamSpec("P")
 T = TypeVar("T")
 
 
+class SyncRunner(Protocol):
+    """What a sync handle needs of its bus (nurimc.client.sync.Bus). A protocol, not an
+    import: the buses hand out motors, so motor must not import them (no import cycle)."""
+
+    @property
+    def core(self) -> BusCore: ...
+    def run(self, procedure: Procedure[T]) -> T: ...
+
+
+class AsyncRunner(Protocol):
+    """What an async handle needs of its bus (nurimc.client.aio.AsyncBus)."""
+
+    @property
+    def core(self) -> BusCore: ...
+    async def run(self, procedure: Procedure[T]) -> T: ...
+
+
 class SyncHandle:
     """A handle whose calls run now and return their result."""
 
-    bus: Bus
+    bus: SyncRunner
 
 
 class AsyncHandle:
     """A handle whose calls return awaitables."""
 
-    bus: AsyncBus
+    bus: AsyncRunner
 
 
 class _Call(Generic[P, T]):
@@ -323,7 +336,7 @@ class _Call(Generic[P, T]):
 class MotorApi:
     """The motor API, once for both buses. Every call sends now (or raises); make_* build only."""
 
-    def __init__(self, bus: Bus | AsyncBus, device_id: int, product: str = "mc") -> None:
+    def __init__(self, bus: SyncRunner | AsyncRunner, device_id: int, product: str = "mc") -> None:
         self.procedures = MotorProcedures(bus.core, device_id, product)
         self.id = device_id
         self.make_move_to = self.procedures.make_move_to
@@ -349,7 +362,7 @@ class MotorApi:
 class Motor(MotorApi, SyncHandle):
     """A motor on a sync Bus: `bus.motor(1).move_to(90, rpm=30)`."""
 
-    def __init__(self, bus: Bus, device_id: int, product: str = "mc") -> None:
+    def __init__(self, bus: SyncRunner, device_id: int, product: str = "mc") -> None:
         super().__init__(bus, device_id, product)
         self.bus = bus
 
@@ -357,6 +370,6 @@ class Motor(MotorApi, SyncHandle):
 class AsyncMotor(MotorApi, AsyncHandle):
     """A motor on an AsyncBus: `await bus.motor(1).move_to(90, rpm=30)`."""
 
-    def __init__(self, bus: AsyncBus, device_id: int, product: str = "mc") -> None:
+    def __init__(self, bus: AsyncRunner, device_id: int, product: str = "mc") -> None:
         super().__init__(bus, device_id, product)
         self.bus = bus

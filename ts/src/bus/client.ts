@@ -17,6 +17,10 @@
  *   factory_reset: ID 0 too; a broadcast: every ID, for the largest window). No frame goes to
  *   a busy ID before its window ends: the client waits it out. Silence from a request sent
  *   within one more window after that is a ControllerBusyError, not a wiring problem.
+ * - Failures reach the call (docs/drivers.md, "The TypeScript client"): a port that fails
+ *   while a call waits for its answer fails that call at once; `request(..., { signal })`
+ *   ends the call when the signal aborts (before its turn, in a busy wait or waiting for
+ *   the answer) and frees the queue.
  */
 import { type AnswerMessageOf, answerName, encode, type Message, type MessageOf, messageSpec } from "../codec.js";
 import { DEFAULT_PROFILE, EEPROM_WRITES, HOST_PROFILES, HOST_TIMING } from "../generated/host.js";
@@ -86,6 +90,15 @@ interface Pending {
   answer: string;
   unexpected: Message[];
   resolve: (answer: Message) => void;
+  /** The port failed while the answer was awaited. */
+  fail: (error: Error) => void;
+}
+
+export interface RequestOptions {
+  /** How many times the request is sent again after no (valid) answer (default: the bus's). */
+  retries?: number;
+  /** Ends the call when aborted (e.g. AbortSignal.timeout(ms)): rejects with the signal's reason. */
+  signal?: AbortSignal;
 }
 
 /** Request/answer client over any BytePort. Every method is safe to call concurrently: calls queue. */
@@ -153,6 +166,7 @@ export class Bus {
       port.onData((chunk) => this.received(chunk)),
       port.onError((error) => {
         this.closed = error;
+        this.pending?.fail(portFailure(error)); // the call waiting for an answer fails now, not at its timeout
       }),
     ];
   }
@@ -196,9 +210,9 @@ export class Bus {
   }
 
   /** Send a request and return its answer; see the class comment for timeouts and retries. */
-  request<N extends RequestName>(request: MessageOf<N>, options?: { retries?: number }): Promise<AnswerMessageOf<N>>;
-  request(request: Message, options?: { retries?: number }): Promise<Message>;
-  request(request: Message, options: { retries?: number } = {}): Promise<Message> {
+  request<N extends RequestName>(request: MessageOf<N>, options?: RequestOptions): Promise<AnswerMessageOf<N>>;
+  request(request: Message, options?: RequestOptions): Promise<Message>;
+  request(request: Message, options: RequestOptions = {}): Promise<Message> {
     const spec = messageSpec(request.name);
     if (spec.kind !== "request") {
       return Promise.reject(
@@ -215,7 +229,8 @@ export class Bus {
     }
     const answer = answerName(request.name);
     const retries = nonNegative("retries", options.retries ?? this.retries);
-    return this.exclusive(() => this.transact(request, frame, answer, retries));
+    const signal = options.signal;
+    return this.exclusive(() => this.transact(request, frame, answer, retries, signal), signal);
   }
 
   /** The timeout of one attempt of `request` at the current rate (from the end of the write). */
@@ -254,7 +269,13 @@ export class Bus {
     await this.port.close();
   }
 
-  private async transact(request: Message, frame: Uint8Array, answer: string, retries: number): Promise<Message> {
+  private async transact(
+    request: Message,
+    frame: Uint8Array,
+    answer: string,
+    retries: number,
+    signal?: AbortSignal,
+  ): Promise<Message> {
     this.stats.requests += 1;
     const timeout = this.timeoutMs(request);
     let failure: Error = new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
@@ -262,17 +283,23 @@ export class Bus {
     for (let attempt = 0; attempt <= retries; attempt++) {
       if (attempt > 0) {
         this.stats.retries += 1;
-        await sleep(this.retryPauseMs);
+        await sleep(this.retryPauseMs, signal);
       }
-      await this.waitUntilFree([request.id]);
+      await this.waitUntilFree([request.id], signal);
       if (attempt === 0) firstSentAt = this.now();
       this.parser.clear(); // stale partial bytes from before this request
       const before = { ...this.parser.stats };
       let settle: (message: Message | null) => void = () => undefined;
-      const got = new Promise<Message | null>((resolve) => {
+      let fail: (error: unknown) => void = () => undefined;
+      const got = new Promise<Message | null>((resolve, reject) => {
         settle = resolve;
+        fail = reject;
       });
-      const pending: Pending = { request, answer, unexpected: [], resolve: (message) => settle(message) };
+      const pending: Pending = { request, answer, unexpected: [], resolve: (message) => settle(message), fail };
+      got.catch(() => undefined); // a failure before the write has resolved is taken up by `await got` below
+      const abort = (): void => fail(signal?.reason);
+      signal?.addEventListener("abort", abort);
+      if (signal?.aborted) abort();
       this.pending = pending; // before the write: a fast answer may come before write() resolves
       let timer: ReturnType<typeof setTimeout> | undefined;
       try {
@@ -282,6 +309,7 @@ export class Bus {
         if (message !== null) return message;
       } finally {
         clearTimeout(timer);
+        signal?.removeEventListener("abort", abort);
         this.pending = null;
       }
       this.parser.clear(); // a partial frame left at the timeout counts as unusable bytes
@@ -301,10 +329,7 @@ export class Bus {
   }
 
   private async transmit(messages: Message[], frame: Uint8Array): Promise<void> {
-    if (this.closed !== null)
-      throw this.closed instanceof BusError
-        ? this.closed
-        : new BusClosedError(`the port failed: ${this.closed.message}`, { cause: this.closed });
+    if (this.closed !== null) throw portFailure(this.closed);
     for (const message of messages) this.onTraffic?.({ direction: "tx", time: Date.now() - this.opened, message });
     await this.port.write(frame);
   }
@@ -314,13 +339,13 @@ export class Bus {
   }
 
   /** Rule 4: no frame to an ID (255: to any) before its busy window has ended. */
-  private async waitUntilFree(ids: readonly number[]): Promise<void> {
+  private async waitUntilFree(ids: readonly number[], signal?: AbortSignal): Promise<void> {
     const until = Math.max(0, ...ids.map((id) => this.busyUntil(id)));
     let now = this.now();
     if (until <= now) return;
     this.stats.busyWaits += 1;
     while (until > now) {
-      await sleep(until - now);
+      await sleep(until - now, signal);
       now = this.now();
     }
   }
@@ -365,12 +390,10 @@ export class Bus {
   }
 
   /** Run `task` after every earlier call has finished (half-duplex: one transaction at a time). */
-  private exclusive<T>(task: () => Promise<T>): Promise<T> {
+  private exclusive<T>(task: () => Promise<T>, signal?: AbortSignal): Promise<T> {
     const run = this.queue.then(() => {
-      if (this.closed !== null)
-        throw this.closed instanceof BusError
-          ? this.closed
-          : new BusClosedError(`the port failed: ${this.closed.message}`);
+      if (this.closed !== null) throw portFailure(this.closed);
+      signal?.throwIfAborted(); // aborted while queued: the port is not touched
       return task();
     });
     this.queue = run.catch(() => undefined);
@@ -378,7 +401,30 @@ export class Bus {
   }
 }
 
-const sleep = (ms: number): Promise<void> => new Promise((resolve) => setTimeout(resolve, ms));
+/** Wait `ms`; an abort of `signal` ends the wait with the signal's reason. */
+function sleep(ms: number, signal?: AbortSignal): Promise<void> {
+  return new Promise((resolve, reject) => {
+    if (signal?.aborted) {
+      reject(signal.reason);
+      return;
+    }
+    const done = (): void => {
+      signal?.removeEventListener("abort", aborted);
+      resolve();
+    };
+    const timer = setTimeout(done, ms);
+    const aborted = (): void => {
+      clearTimeout(timer);
+      reject(signal?.reason);
+    };
+    signal?.addEventListener("abort", aborted, { once: true });
+  });
+}
+
+/** The error every call gets once the port has failed (or the bus was closed). */
+function portFailure(error: Error): BusError {
+  return error instanceof BusError ? error : new BusClosedError(`the port failed: ${error.message}`, { cause: error });
+}
 
 function profileWindowMs(product: string): number {
   return (HOST_PROFILES[product] ?? HOST_PROFILES[DEFAULT_PROFILE])?.busyWindowMs ?? 0;

@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
+from ..errors import CallTimeout
 from ..motor import AsyncMotor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
@@ -32,13 +33,16 @@ async def drive_async(
     transport: Transport,
     listeners: Sequence[FrameRecorder] = (),
     on_note: Callable[[Any], None] | None = None,
+    timeout: float | None = None,
 ) -> T:
     """Carry out a procedure's actions without blocking the loop (docs/drivers.md).
 
     A failing action or a cancellation (including asyncio.timeout / wait_for on the whole
     call) is thrown into the procedure, whose cleanup then still runs on the bus; the
-    cancellation is raised again once the procedure has finished."""
+    cancellation is raised again once the procedure has finished. `timeout`: as the sync
+    driver, CallTimeout is thrown in at the first blocking action after that many seconds."""
     performer = Performer(transport, listeners, on_note)
+    call_deadline = None if timeout is None else time.monotonic() + timeout
     result: Any = None
     error: BaseException | None = None
     try:
@@ -49,16 +53,20 @@ async def drive_async(
                 return stop.value  # type: ignore[no-any-return]
             result, error = None, None
             try:
-                result = await _perform(performer, transport, action)
+                blocking = type(action) in (Receive, Wait, WaitUntil)
+                if blocking and call_deadline is not None and time.monotonic() >= call_deadline:
+                    call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
+                    raise CallTimeout(f"the bus call took longer than {timeout:g} s and was abandoned")
+                result = await _perform(performer, transport, action, call_deadline)
             except BaseException as err:  # every failure goes to the procedure
                 error = err
     finally:
         procedure.close()
 
 
-async def _perform(performer: Performer, transport: Transport, action: Action) -> Any:
+async def _perform(performer: Performer, transport: Transport, action: Action, call_deadline: float | None) -> Any:
     if type(action) is Receive:
-        wait = performer.read_timeout(action.until)
+        wait = performer.read_timeout(action.until if call_deadline is None else min(action.until, call_deadline))
         if wait is None:
             return b""
         read = asyncio.ensure_future(asyncio.to_thread(transport.read, action.max_bytes, wait))
@@ -69,10 +77,12 @@ async def _perform(performer: Performer, transport: Transport, action: Action) -
             await asyncio.wait([read])
             raise
     if type(action) is Wait:
-        await asyncio.sleep(action.seconds)
+        seconds = action.seconds if call_deadline is None else min(action.seconds, call_deadline - time.monotonic())
+        await asyncio.sleep(max(0.0, seconds))
         return None
     if type(action) is WaitUntil:
-        await asyncio.sleep(max(0.0, action.when - time.monotonic()))
+        when = action.when if call_deadline is None else min(action.when, call_deadline)
+        await asyncio.sleep(max(0.0, when - time.monotonic()))
         return time.monotonic()
     return performer.perform(action)
 
@@ -124,9 +134,14 @@ class AsyncBus:
     async def set_baudrate(self, rate: int) -> None:
         await self.run(self.core.set_baud(rate))
 
-    async def run(self, procedure: Procedure[T], on_note: Callable[[Any], None] | None = None) -> T:
+    async def run(
+        self, procedure: Procedure[T], on_note: Callable[[Any], None] | None = None, timeout: float | None = None
+    ) -> T:
+        """Run any procedure under the bus lock; `timeout` as Bus.run. Cancelling the awaiting
+        task (asyncio.timeout, wait_for) throws CancelledError into the procedure, whose
+        cleanup runs before the cancellation goes on (docs/drivers.md)."""
         async with self._lock:
-            return await drive_async(procedure, self.transport, self._listeners.items, on_note)
+            return await drive_async(procedure, self.transport, self._listeners.items, on_note, timeout)
 
     async def request(self, request: Request, retries: int | None = None) -> Message:
         return await self.run(self.core.ask(request, retries))

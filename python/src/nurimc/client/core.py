@@ -332,5 +332,9 @@ class BusCore:
         return answers, parser.stats.dropped_bytes
 
     def set_baud(self, rate: int) -> Procedure[None]:
+        """Switch the host's rate. Answers still owed at the old rate are forgotten: at another
+        rate they can only arrive as broken bytes, never as a frame to be taken for fresh."""
         yield SetBaud(rate)
+        if rate != self.baudrate:
+            self._pending.clear()
         self.baudrate = rate

@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 from ..errors import CallTimeout
+from ..motor import Motor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
 from .actions import Action, Procedure, Receive, Wait, WaitUntil
@@ -162,6 +163,10 @@ class Bus:
 
     @baudrate.setter
     def baudrate(self, rate: int) -> None:
+        self.set_baudrate(rate)
+
+    def set_baudrate(self, rate: int) -> None:
+        """Switch the host's rate (as AsyncBus.set_baudrate; the property setter does the same)."""
         self.run(self.core.set_baud(rate))
 
     @property
@@ -200,6 +205,3 @@ class Bus:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-from ..motor import Motor  # noqa: E402 - Motor needs Bus for its type, Bus hands out Motors
