@@ -96,7 +96,7 @@ class PtyServer:
             if not link.is_symlink():
                 raise FileExistsError(f"{link} exists and is not a symlink; choose another path")
             target = os.readlink(link)
-            if _live_terminal(target):
+            if target != self.path and _live_terminal(target):  # our own pty: its number was reused
                 raise FileExistsError(
                     f"{link} points to {target}, a pseudo-terminal still in use (another simulator?); "
                     "stop that one or choose another path"
