@@ -66,7 +66,7 @@ def test_kill_9_never_loses_an_acknowledged_write(tmp_path: Path) -> None:
     acknowledged_writes = 0
     for trial in range(TRIALS):
         proc, address = _start(tmp_path)
-        killer = threading.Timer(rng.uniform(0.05, 0.5), lambda p=proc: p.send_signal(signal.SIGKILL))  # type: ignore[misc]
+        killer = threading.Timer(rng.uniform(0.05, 0.5), lambda p=proc: p.send_signal(signal.SIGKILL))
         killer.start()
         acknowledged, sent = _write_until_killed(address, next_value)
         killer.join()
