@@ -18,10 +18,6 @@ LIST = Path(__file__).with_name("hostile_args.txt")
 SERVERS = ("sim", "dashboard")  # on success these serve until stopped: run apart, with a time limit
 NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"
 
-# Refusals the simulator's own options still lack (issue #12 point 5 belongs to the simulator's
-# owner); they are kept in the list so the gap shows, and xfail until that work is merged.
-PENDING_SIM = {"sim --tcp 99999", "sim --eeprom-ms nan"}
-
 
 def _cases() -> list[tuple[int, str]]:
     cases = []
@@ -50,8 +46,6 @@ def test_hostile_call(expected: int, args: str, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("expected", "args"), [c for c in _cases() if c[1].startswith(SERVERS)])
 def test_hostile_server_call(expected: int, args: str) -> None:
-    if args in PENDING_SIM:
-        pytest.xfail("the simulator's options are checked by the simulator's owner (issue #12 point 5)")
     env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
     try:
         done = subprocess.run(

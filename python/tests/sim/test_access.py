@@ -92,7 +92,7 @@ def test_cli_serves_pty_until_sigterm(tmp_path: Path) -> None:
 
 
 def test_cli_tcp_and_bad_options() -> None:
-    proc, where = _start(["--tcp", "0", "--ids", "2"])
+    proc, where = _start(["--tcp", "0", "--ids", "0-1"])
     try:
         host, _ = where.split(":")
         assert host == "127.0.0.1"

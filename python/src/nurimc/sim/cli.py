@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 import signal
 import sys
 import threading
@@ -13,24 +14,37 @@ import typer
 from .bus import SimBus, describe
 from .faults import FaultConfig
 from .options import OptionError, check_baud, parse_ids, parse_motor
+from .profile import SPEED_ZERO_CHOICES, SimProfile, load_profiles
 from .settings import PRODUCT_NAMES
 from .store import StateError
 
 
 def sim(
     link: Annotated[str | None, typer.Option(help="Create a symlink at PATH to the pseudo-terminal.")] = None,
+    monitor: Annotated[
+        str | None,
+        typer.Option(help="Also serve a monitor pty at PATH (a symlink) that hears both directions, for a sniffer."),
+    ] = None,
     tcp: Annotated[
         int | None, typer.Option(help="Also serve raw TCP on this port (socket:// URLs); 0 picks one.")
     ] = None,
     host: Annotated[str, typer.Option(help="Address the TCP server listens on.")] = "127.0.0.1",
     ids: Annotated[
-        str | None, typer.Option(help="Controller IDs '0,1,2', or a count N for IDs 0..N-1 ('5,' is just ID 5).")
+        str | None, typer.Option(help="Controller IDs: '1' (ID 1), '0,1,2', or a range '0-31'. Default: ID 0.")
     ] = None,
     baud: Annotated[int, typer.Option(help="Rate of the --ids controllers (and of TCP clients).")] = 9600,
     motor: Annotated[
         list[str] | None, typer.Option(help="A controller at its own rate, ID@RATE (repeatable), e.g. 3@57600.")
     ] = None,
     product: Annotated[str, typer.Option(help="Product: mc or blmc-h.")] = "mc",
+    profile: Annotated[
+        str | None,
+        typer.Option(help="Product profiles file shaped like spec/profiles.json (factory gains, speed-0 rule)."),
+    ] = None,
+    speed_zero: Annotated[
+        str | None,
+        typer.Option(help="What a motion frame with speed 0 does: ignore (outside the range) or stop (hold)."),
+    ] = None,
     state: Annotated[str | None, typer.Option(help="Directory that keeps the settings across restarts.")] = None,
     wire_timing: Annotated[bool, typer.Option("--wire-timing", help="Pace bytes as a real wire would.")] = False,
     drop_rate: Annotated[float, typer.Option(help="Probability a byte on the wire is lost.")] = 0.0,
@@ -55,13 +69,39 @@ def sim(
         stream=sys.stderr,
     )
     try:
-        if eeprom_ms < 0:
-            raise OptionError(f"--eeprom-ms {eeprom_ms}: use 0 or more")
-        bus = build_bus(ids, baud, motor or [], product, state, wire_timing, seed, _faults(locals()), eeprom_ms)
+        check_serving(tcp, eeprom_ms, speed_zero, link, monitor)
+        profiles = load_profiles(profile) if profile is not None else None
+        bus = build_bus(
+            ids,
+            baud,
+            motor or [],
+            product,
+            state,
+            wire_timing,
+            seed,
+            _faults(locals()),
+            eeprom_ms,
+            speed_zero,
+            profiles,
+        )
     except (OptionError, StateError, ValueError) as exc:
         typer.echo(f"nurimc sim: {exc}", err=True)
         raise typer.Exit(2) from None
-    serve(bus, link, tcp, host, baud)
+    serve(bus, link, tcp, host, baud, monitor)
+
+
+def check_serving(
+    tcp: int | None, eeprom_ms: float, speed_zero: str | None, link: str | None, monitor: str | None
+) -> None:
+    """The options build_bus does not see, checked before anything is served."""
+    if tcp is not None and not 0 <= tcp <= 65535:
+        raise OptionError(f"--tcp {tcp}: a TCP port is 0..65535 (0 picks a free one)")
+    if not (math.isfinite(eeprom_ms) and 0 <= eeprom_ms <= 10_000):
+        raise OptionError(f"--eeprom-ms {eeprom_ms}: use a number of milliseconds, 0..10000")
+    if speed_zero is not None and speed_zero not in SPEED_ZERO_CHOICES:
+        raise OptionError(f"--speed-zero {speed_zero!r}: use one of {', '.join(SPEED_ZERO_CHOICES)}")
+    if link is not None and monitor is not None and link == monitor:
+        raise OptionError(f"--link and --monitor are both {link}; give them different paths")
 
 
 def _faults(options: dict[str, Any]) -> FaultConfig:
@@ -79,23 +119,39 @@ def build_bus(
     seed: int,
     faults: FaultConfig,
     eeprom_ms: float = 50.0,
+    speed_zero: str | None = None,
+    profiles: dict[str, SimProfile] | None = None,
 ) -> SimBus:
     if product not in PRODUCT_NAMES:
         raise OptionError(f"--product {product!r}: use one of {', '.join(PRODUCT_NAMES)}")
     check_baud(baud)
-    id_list = parse_ids(ids if ids is not None else ("" if motors else "1"))
+    id_list = parse_ids(ids if ids is not None else ("" if motors else "0"))
     motor_list = [parse_motor(text) for text in motors]
-    bus = SimBus(wire_timing=wire_timing, faults=faults, state_dir=state, seed=seed, eeprom_time=eeprom_ms / 1000)
-    for i in id_list:
-        bus.add_controller(i, baud, product)
-    for i, rate in motor_list:
-        bus.add_controller(i, rate, product)
-    if not bus.controllers:
+    if not id_list and not motor_list:
         raise OptionError("no controllers: give --ids or --motor")
+    if len(id_list) + len(motor_list) > 254:
+        raise OptionError(f"{len(id_list) + len(motor_list)} controllers: a bus holds at most 254")
+    bus = SimBus(
+        wire_timing=wire_timing,
+        faults=faults,
+        state_dir=state,
+        seed=seed,
+        eeprom_time=eeprom_ms / 1000,
+        speed_zero=speed_zero,
+        profiles=profiles,
+    )
+    try:
+        for i in id_list:
+            bus.add_controller(i, baud, product)
+        for i, rate in motor_list:
+            bus.add_controller(i, rate, product)
+    except BaseException:
+        bus.close()
+        raise
     return bus
 
 
-def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int) -> None:
+def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, monitor: str | None = None) -> None:
     """Serve until SIGINT or SIGTERM; print what is served and `ready: ...` lines (flushed)."""
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -114,9 +170,15 @@ def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int) 
             address = f"{server.address[0]}:{server.address[1]}"
             ready.append(address)
             print(f"tcp {address} (socket://{address}, clients talk at {baud} bps)")
+        if monitor is not None:
+            watcher = bus.serve_monitor(link=monitor)
+            servers.append(watcher)
+            ready.append(monitor)
+            print(f"monitor {watcher.path} (link {monitor}): hears the host and the controllers")
     except OSError as exc:
         for s in servers:
             s.stop()
+        bus.close()
         typer.echo(f"nurimc sim: cannot serve: {exc}", err=True)
         raise typer.Exit(1) from None
     timing = "wire timing on" if bus.wire_timing else "no wire timing"

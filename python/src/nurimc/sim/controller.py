@@ -83,9 +83,11 @@ class SimController:
         on_settings_changed: Callable[[], None] | None = None,
         eeprom_time: float = EEPROM_TIME,
         speed_zero: str = "ignore",
+        factory_defaults: dict[str, int] | None = None,
     ) -> None:
         self.product = check_product(product)
         self.speed_zero = speed_zero
+        self.factory_defaults = factory_defaults
         self.settings = settings
         self.slot = slot
         self.eeprom_time = eeprom_time
@@ -253,7 +255,7 @@ class SimController:
                 if self.servo.mode is Mode.POSITION:
                     self.servo.hold()
         elif isinstance(msg, m.FactoryReset):
-            fresh = Settings.factory(self.product)
+            fresh = Settings.factory(self.product, self.factory_defaults)
             for name, value in fresh.to_dict().items():
                 setattr(s, name, value)
             self.servo.hold()

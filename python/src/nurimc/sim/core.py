@@ -19,10 +19,10 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from ..protocol import BAUD_RATES, BROADCAST_ID, decode
-from ..protocol.host import PROFILES
 from ..sniff import ExplainingParser, Frame
 from .controller import EEPROM_TIME, Reply, SimController
 from .faults import FaultConfig, FaultInjector
+from .profile import SPEED_ZERO_CHOICES, SimProfile, default_profiles
 from .settings import Settings, check_product
 from .store import StateStore
 from .wire import Garbler, Transmission, byte_time, merge
@@ -70,8 +70,8 @@ class BusCore:
 
     `clock` returns seconds (default time.monotonic); tests may pass a fake one and move
     it themselves. With `wire_timing` every byte takes 10 bits / baud on the wire.
-    `speed_zero` ("ignore" or "stop", default: each product's profile) says what a motion
-    frame with speed 0 does.
+    `profiles` (default: spec/profiles.json) give each product's factory gains and speed-0
+    rule; `speed_zero` ("ignore" or "stop") overrides that rule for every controller.
     """
 
     def __init__(
@@ -83,8 +83,9 @@ class BusCore:
         clock: Callable[[], float] | None = None,
         eeprom_time: float = EEPROM_TIME,
         speed_zero: str | None = None,
+        profiles: dict[str, SimProfile] | None = None,
     ) -> None:
-        if speed_zero not in (None, "ignore", "stop"):
+        if speed_zero is not None and speed_zero not in SPEED_ZERO_CHOICES:
             raise ValueError(f"speed_zero {speed_zero!r}: use 'ignore' or 'stop'")
         self.wire_timing = wire_timing
         self.fault_config = faults or FaultConfig()
@@ -92,6 +93,7 @@ class BusCore:
         self.seed = seed
         self.eeprom_time = eeprom_time
         self.speed_zero = speed_zero
+        self.profiles = profiles or default_profiles()
         self._clock = clock or time.monotonic
         self._real_clock = clock is None
         self.lock = threading.RLock()
@@ -128,11 +130,12 @@ class BusCore:
             slot = len(self.controllers)
             if slot >= 254:
                 raise ValueError("a bus holds at most 254 controllers")
+            profile = self.profiles[product]
             record = self._store.slot(slot) if self._store is not None else None
             if record is not None and record.get("product") == product:
-                settings = Settings.from_dict(record["settings"], product)
+                settings = Settings.from_dict(record["settings"], product, profile.factory_defaults)
             else:
-                settings = Settings.factory(product)
+                settings = Settings.factory(product, profile.factory_defaults)
                 settings.id = id
                 settings.baud_index = BAUD_RATES.index(baud)
             controller = SimController(
@@ -141,7 +144,8 @@ class BusCore:
                 slot,
                 on_settings_changed=self._settings_changed,
                 eeprom_time=self.eeprom_time,
-                speed_zero=self.speed_zero or PROFILES[product].speed_zero,
+                speed_zero=self.speed_zero or profile.speed_zero,
+                factory_defaults=profile.factory_defaults,
             )
             controller.advance_to(self.now())
             settings.on_address_change(self._forget_index)
@@ -346,6 +350,8 @@ class BusCore:
         with self.lock:
             for link in list(self.links):
                 link.close()
+            if self._store is not None:
+                self._store.close()
 
 
 def describe(bus: BusCore) -> list[str]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import random
 from dataclasses import dataclass
 
@@ -22,10 +23,10 @@ class FaultConfig:
     def __post_init__(self) -> None:
         for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate"):
             value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
                 raise ValueError(f"fault {name} = {value} is not a probability; use 0..1")
-        if self.delay_ms < 0:
-            raise ValueError(f"fault delay_ms = {self.delay_ms} is negative; use 0 or more")
+        if not (math.isfinite(self.delay_ms) and 0 <= self.delay_ms <= 60_000):
+            raise ValueError(f"fault delay_ms = {self.delay_ms}: use a number of milliseconds, 0..60000")
         if self.noise_max < 1:
             raise ValueError(f"fault noise_max = {self.noise_max}; use 1 or more")
 

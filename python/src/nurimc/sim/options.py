@@ -25,19 +25,25 @@ def _int(text: str, what: str) -> int:
 
 
 def parse_ids(text: str) -> list[int]:
-    """`0,1,2` -> those IDs; a single number N -> N controllers at IDs 0..N-1; `5,` -> just ID 5."""
-    text = text.strip()
-    if not text:
-        return []
-    if "," not in text:
-        count = _int(text, "--ids")
-        if not 1 <= count <= 254:
-            raise OptionError(f"--ids {count}: a count must be 1..254 (for the single ID {count}, write '{count},')")
-        return list(range(count))
-    ids = [_int(part, "--ids") for part in text.split(",") if part.strip()]
-    for i in ids:
-        if not 0 <= i <= 254:
-            raise OptionError(f"--ids: ID {i} is out of range; use 0..254")
+    """Controller IDs: `1` -> ID 1, `0,1,2` -> those IDs, `0-31` -> IDs 0..31 (mixable: `1,5-7`).
+
+    A single number is one ID, never a count: `sim://?ids=1` is the controller at ID 1."""
+    ids: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        first, dash, last = part.partition("-")
+        low = _int(first, "--ids") if first.strip() else -1
+        high = _int(last, "--ids") if dash else low
+        for i in (low, high):
+            if not 0 <= i <= 254:
+                raise OptionError(f"--ids {part!r}: ID {i} is out of range; use 0..254 (e.g. 1, 0,1,2 or 0-31)")
+        if high < low:
+            raise OptionError(f"--ids {part!r}: a range goes up, e.g. {high}-{low}")
+        ids.extend(range(low, high + 1))
+    if len(ids) > 254:
+        raise OptionError(f"--ids: {len(ids)} controllers; a bus holds at most 254")
     return ids
 
 

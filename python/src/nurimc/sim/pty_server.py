@@ -8,6 +8,7 @@ import fcntl
 import logging
 import os
 import select
+import stat
 import struct
 import termios
 import threading
@@ -30,6 +31,13 @@ def host_baud(fd: int, fallback: int) -> int:
         return int(ospeed) or fallback
     except OSError:
         return fallback
+
+
+def _live_terminal(target: str) -> bool:
+    try:
+        return stat.S_ISCHR(os.stat(target).st_mode)
+    except OSError:
+        return False
 
 
 class PtyEndpoint(str):
@@ -69,17 +77,35 @@ class PtyServer:
 
     def start(self) -> PtyEndpoint:
         if self.link_path:
-            link = Path(self.link_path)
-            if link.is_symlink() or link.exists():
-                if not link.is_symlink():
-                    self._close_fds()
-                    raise FileExistsError(f"{link} exists and is not a symlink; choose another --link path")
-                link.unlink()
-            link.symlink_to(self.path)
+            try:
+                self._make_link(Path(self.link_path))
+            except BaseException:
+                self.host.close()
+                self._close_fds()
+                raise
         self._thread.start()
         endpoint = PtyEndpoint(self.path)
         endpoint.server = self
         return endpoint
+
+    def _make_link(self, link: Path) -> None:
+        """Point `link` at our pty. A link to a live pseudo-terminal belongs to someone else
+        (another simulator): refused. A link to a vanished one (its owner was killed: a pts
+        node disappears with its master) is stale and replaced."""
+        if link.is_symlink() or link.exists():
+            if not link.is_symlink():
+                raise FileExistsError(f"{link} exists and is not a symlink; choose another path")
+            target = os.readlink(link)
+            if target != self.path and _live_terminal(target):  # our own pty: its number was reused
+                raise FileExistsError(
+                    f"{link} points to {target}, a pseudo-terminal still in use (another simulator?); "
+                    "stop that one or choose another path"
+                )
+            link.unlink(missing_ok=True)
+        try:
+            link.symlink_to(self.path)
+        except FileExistsError:
+            raise FileExistsError(f"{link} was just created by someone else; choose another path") from None
 
     def _serve(self) -> None:
         pending = bytearray()

@@ -6,10 +6,52 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-from ..protocol import BAUD_RATES, DEVICE_DEFAULTS, PRODUCTS
+from ..protocol import BAUD_RATES, DEVICE_DEFAULTS, PRODUCTS, Message
+from ..protocol import messages as m
+from ..protocol.host import PROFILES
+from ..protocol.schema import FieldSpec, MessageSpec
 
 PRODUCT_NAMES = tuple(PRODUCTS)
 ADDRESS_FIELDS = frozenset({"id", "baud_index"})
+
+# Each setting's range is that of the field of the command that writes it.
+_WRITERS: dict[str, tuple[type[Message], str]] = {
+    "id": (m.SetId, "new_id"),
+    "baud_index": (m.SetBaud, "baud_index"),
+    "response_time": (m.SetResponseTime, "response_time"),
+    "rated_speed": (m.SetRatedSpeed, "rated_speed"),
+    "resolution": (m.SetResolution, "resolution"),
+    "ratio": (m.SetRatio, "ratio"),
+    "control": (m.SetControl, "control"),
+    "position_mode": (m.SetPositionMode, "position_mode"),
+    "direction": (m.SetDirection, "direction"),
+    "position_kp": (m.SetPositionGains, "kp"),
+    "position_ki": (m.SetPositionGains, "ki"),
+    "position_kd": (m.SetPositionGains, "kd"),
+    "position_rated_current": (m.SetPositionGains, "rated_current"),
+    "speed_kp": (m.SetSpeedGains, "kp"),
+    "speed_ki": (m.SetSpeedGains, "ki"),
+    "speed_kd": (m.SetSpeedGains, "kd"),
+    "speed_rated_current": (m.SetSpeedGains, "rated_current"),
+}
+
+
+def _field(name: str) -> tuple[MessageSpec, FieldSpec]:
+    cls, field_name = _WRITERS[name]
+    spec = cls.SPEC
+    return spec, next(f for f in spec.fields if f.name == field_name)
+
+
+def setting_problem(name: str, value: object) -> str | None:
+    """Why `value` cannot be the setting `name` (unknown, not an integer, out of range), or None."""
+    if name not in _WRITERS:
+        return f"{name!r} is not a setting (known: {', '.join(_WRITERS)})"
+    spec, f = _field(name)
+    if not isinstance(value, int) or isinstance(value, bool):
+        return f"{name!r}: {value!r} is not an integer"
+    if not f.min <= value <= f.max:
+        return f"{name!r}: {value} is out of range; allowed {f.min}..{f.max} (as {spec.name} carries it)"
+    return None
 
 
 def check_product(product: str) -> str:
@@ -52,9 +94,10 @@ class Settings:
         object.__setattr__(self, "address_hook", hook)
 
     @classmethod
-    def factory(cls, product: str) -> Settings:
-        """The document's defaults plus the product's (assumed) gains and rated current."""
-        gains = dict(PRODUCTS[check_product(product)].defaults)
+    def factory(cls, product: str, defaults: dict[str, int] | None = None) -> Settings:
+        """The document's defaults plus the product profile's factory gains and rated current
+        (spec/profiles.json, or `defaults` from a --profile file)."""
+        gains = dict(PROFILES[check_product(product)].factory_defaults if defaults is None else defaults)
         return cls(
             **DEVICE_DEFAULTS,
             position_kp=gains["position_kp"],
@@ -75,15 +118,27 @@ class Settings:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], product: str) -> Settings:
-        """Settings from a state file; missing or invalid entries fall back to the factory value."""
-        settings = cls.factory(product)
+    def from_dict(cls, data: dict[str, Any], product: str, defaults: dict[str, int] | None = None) -> Settings:
+        """Settings from a state file, which must hold every setting, each in its range
+        (ValueError naming the field otherwise; see validate_stored)."""
+        problem = stored_problem(data)
+        if problem is not None:
+            raise ValueError(problem)
+        settings = cls.factory(product, defaults)
         for f in fields(cls):
-            value = data.get(f.name)
-            if isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= 0xFFFF:
-                setattr(settings, f.name, value)
-        if not 0 <= settings.baud_index < len(BAUD_RATES):
-            settings.baud_index = DEVICE_DEFAULTS["baud_index"]
-        if settings.id > 0xFE:
-            settings.id = DEVICE_DEFAULTS["id"]
+            setattr(settings, f.name, data[f.name])
         return settings
+
+
+def stored_problem(data: object) -> str | None:
+    """What is wrong with a stored settings record (a missing, unknown or out-of-range field), or None."""
+    if not isinstance(data, dict):
+        return "'settings' is not an object"
+    for f in fields(Settings):
+        if f.name not in data:
+            return f"field {f.name!r} is missing"
+    for name, value in data.items():
+        problem = setting_problem(name, value)
+        if problem is not None:
+            return f"field {problem}"
+    return None

@@ -2,11 +2,13 @@
 
 Each URL makes a new bus (reach it as `port.bus`). Parameters: ids (list or count), baud,
 product, motor (repeatable ID@RATE), wire_timing, state (directory), seed, and the fault
-options drop_rate, flip_rate, noise_rate, delay_ms, miss_rate, echo.
+options drop_rate, flip_rate, noise_rate, delay_ms, miss_rate, echo; speed_zero (ignore or
+stop) and eeprom_ms. `ids=1` is the controller at ID 1 (`ids=0-3` a range); no ids: ID 0.
 """
 
 from __future__ import annotations
 
+import math
 import urllib.parse
 from typing import Any
 
@@ -16,9 +18,22 @@ from ..bus import SimBus
 from ..faults import FaultConfig
 from ..options import OptionError, check_baud, parse_bool, parse_ids, parse_motor
 from ..port import SimSerial
+from ..profile import SPEED_ZERO_CHOICES
 
 _FLOAT_FAULTS = ("drop_rate", "flip_rate", "noise_rate", "delay_ms", "delay_rate", "miss_rate")
-_KNOWN = {"ids", "baud", "product", "motor", "wire_timing", "state", "seed", "echo", *_FLOAT_FAULTS}
+_KNOWN = {
+    "ids",
+    "baud",
+    "product",
+    "motor",
+    "wire_timing",
+    "state",
+    "seed",
+    "echo",
+    "speed_zero",
+    "eeprom_ms",
+    *_FLOAT_FAULTS,
+}
 
 
 def bus_from_url(url: str) -> SimBus:
@@ -38,23 +53,36 @@ def bus_from_url(url: str) -> SimBus:
     try:
         faults: dict[str, Any] = {k: float(one(k, "0" if k != "delay_rate" else "1")) for k in _FLOAT_FAULTS}
         seed = int(one("seed", "0"))
+        eeprom_ms = float(one("eeprom_ms", "50"))
+        baud = int(one("baud", "9600"))
     except ValueError as exc:
         raise OptionError(f"sim:// URL: {exc}") from None
     faults["echo"] = parse_bool(one("echo", "0"), "echo")
-    baud = check_baud(int(one("baud", "9600")))
+    check_baud(baud)
+    if not (math.isfinite(eeprom_ms) and 0 <= eeprom_ms <= 10_000):
+        raise OptionError(f"sim:// URL: eeprom_ms={eeprom_ms}: use a number of milliseconds, 0..10000")
+    speed_zero = query["speed_zero"][-1] if "speed_zero" in query else None
+    if speed_zero is not None and speed_zero not in SPEED_ZERO_CHOICES:
+        raise OptionError(f"sim:// URL: speed_zero={speed_zero!r}: use one of {', '.join(SPEED_ZERO_CHOICES)}")
     product = one("product", "mc")
-    ids = parse_ids(one("ids", "" if "motor" in query else "1"))
+    ids = parse_ids(one("ids", "" if "motor" in query else "0"))
     bus = SimBus(
         wire_timing=parse_bool(one("wire_timing", "0"), "wire_timing"),
         faults=FaultConfig(**faults),
         state_dir=query["state"][-1] if "state" in query else None,
         seed=seed,
+        eeprom_time=eeprom_ms / 1000,
+        speed_zero=speed_zero,
     )
-    for i in ids:
-        bus.add_controller(i, baud, product)
-    for spec in query.get("motor", []):
-        i, rate = parse_motor(spec)
-        bus.add_controller(i, rate, product)
+    try:
+        for i in ids:
+            bus.add_controller(i, baud, product)
+        for spec in query.get("motor", []):
+            i, rate = parse_motor(spec)
+            bus.add_controller(i, rate, product)
+    except BaseException:
+        bus.close()
+        raise
     return bus
 
 
