@@ -134,3 +134,26 @@ def test_3000_requests_get_3000_replies_each_done_or_busy(server: str) -> None:
         refused = [r for r in got if not r["ok"]]
         assert all(re.match(r"busy: .* try again", r["error"]) for r in refused), {r["error"] for r in refused}
         assert total - len(refused) >= 256, "the first page-full were carried out"
+
+
+def test_hello_heartbeat_and_stop_receipt(server: str) -> None:
+    """What lets a page notice a hung or restarted server: its boot and clock, a tick every second,
+    and a receipt for the stop ahead of everything else waiting for that page."""
+    with open_socket(server) as ws:
+        hello = json.loads(ws.recv(timeout=5))
+        assert hello["type"] == "hello" and len(hello["boot"]) == 16 and hello["clock"] > 0
+        began = time.monotonic()
+        while json.loads(ws.recv(timeout=3))["type"] != "tick":
+            pass
+        assert time.monotonic() - began < 5, "ticks keep coming (every second)"
+        for n in range(200):
+            ws.send(json.dumps({"op": "hold", "req": n, "id": 1 + n % 3}))
+        ws.send(json.dumps({"op": "estop", "req": "stop"}))
+        seen: list[tuple[str, Any]] = []
+        while ("reply", "stop") not in seen:
+            message = json.loads(ws.recv(timeout=30))
+            seen.append((message["type"], message.get("req")))
+        assert ("estop_received", "stop") in seen
+        assert seen.index(("estop_received", "stop")) < seen.index(("reply", "stop"))
+    with open_socket(server) as again:
+        assert json.loads(again.recv(timeout=5))["boot"] == hello["boot"], "the same process, the same boot"
