@@ -79,6 +79,14 @@ test("the first load discovers the motors by itself, cards appearing as they are
   assert.ok((await page.evaluate(() => window.dashboard.progressEvents)) > 1, "progress events were shown");
   assert.equal(await page.evaluate(() => window.cardBeforeScanEnded), true, "a card showed before the scan ended");
   assert.equal(await page.locator(".card").count(), 3);
+  assert.match(await page.textContent(".hint"), /Esc.*emergency stop/, "the Escape key is documented on the page");
+  assert.match(await page.getAttribute("#estop", "title"), /Esc/);
+  assert.equal(await page.evaluate(() => getComputedStyle(document.querySelector("#top")).position), "sticky");
+  assert.equal(
+    await page.evaluate(() => getComputedStyle(document.querySelector("#estop")).backgroundColor),
+    "rgb(192, 38, 45)",
+    "the E-STOP is red",
+  );
 });
 
 test("a move shows in the live plot, with its target, on a time axis relative to now", async () => {
@@ -111,6 +119,12 @@ test("a move shows in the live plot, with its target, on a time axis relative to
     Math.abs(Number(await card.getAttribute("data-device-position"))) <= 655.35,
     "the device's own position is shown",
   );
+  assert.match(await card.locator(".readout").textContent(), /position -?\d+\.\d+ °.*device -?\d+\.\d+ °/s);
+  const axes = await page.evaluate(() => {
+    const u = window.dashboard.motors.get(1).plot;
+    return u.axes.slice(1).map((a) => `${a.scale}:${a.label}`);
+  });
+  assert.deepEqual(axes, ["deg:°", "rpm:RPM", "amp:A"], "one axis per unit");
   await page.screenshot({ path: join(SHOTS, "motors.png") });
 });
 
@@ -194,6 +208,31 @@ test("blank, text, huge and negative fields are refused on the page; nothing is 
   assert.ok(count <= 4, "messages do not pile up");
 });
 
+test("a move past the device's ±655.33° is refused with the reason, on the page and by the server; Set zero", async () => {
+  const card = page.locator("#motor-1");
+  const [to, rpm] = [0, 1].map((n) => card.locator(".controls").first().locator("input").nth(n));
+  const moves = await page.evaluate(() => window.sentOps.filter((op) => op === "move").length);
+  await to.fill("700");
+  await rpm.fill("60");
+  await card.getByRole("button", { name: "Move" }).click();
+  assert.match(await lastToast(), /outside the device's range ±655\.33°.*Set zero/);
+  assert.equal(await page.evaluate(() => window.sentOps.filter((op) => op === "move").length), moves);
+  const server = await page.evaluate(() =>
+    window.dashboard.link.request("move", { id: 1, degrees: 700, rpm: 60 }).then(
+      () => "moved",
+      (error) => error.message,
+    ),
+  );
+  assert.match(server, /655\.33/, "the server refuses it too, and says why");
+  await card.getByRole("button", { name: "Set zero" }).click();
+  await page.waitForFunction(() => /now 0°/.test(document.querySelector("#messages").textContent));
+  await page.waitForFunction(
+    () => Math.abs(Number(document.querySelector("#motor-1").dataset.devicePosition)) < 1,
+    null,
+    { timeout: 5000 },
+  );
+});
+
 test("a setting change is written, verified and shown", async () => {
   await page.click("nav button[data-view=settings]");
   await page.selectOption("#settings-motor", "2");
@@ -261,6 +300,18 @@ test("the raw view shows decoded frames, filterable, and can pause", async () =>
   await page.uncheck("#raw-on");
 });
 
+test("the plots follow the window's size", async () => {
+  await page.click("nav button[data-view=motors]");
+  const width = () => page.evaluate(() => window.dashboard.motors.get(1).plot.width);
+  const wide = await width();
+  await page.setViewportSize({ width: 480, height: 900 });
+  await page.waitForFunction((w) => window.dashboard.motors.get(1).plot.width < w - 50, wide);
+  const box = await page.locator("#motor-1 .plot").boundingBox();
+  assert.ok(Math.abs((await width()) - box.width) <= 3, "the plot fills its card");
+  await page.setViewportSize({ width: 1280, height: 900 });
+  await page.waitForFunction((w) => Math.abs(window.dashboard.motors.get(1).plot.width - w) <= 3, wide);
+});
+
 test("the overlay plot draws every motor together", async () => {
   await page.click("nav button[data-view=plot]");
   await page.waitForFunction(() => document.querySelectorAll("#overlay-plot .u-legend .u-series").length === 4);
@@ -268,15 +319,27 @@ test("the overlay plot draws every motor together", async () => {
   await page.waitForTimeout(200);
   const filled = await page.evaluate(() => document.querySelector("#overlay-plot .u-legend").textContent);
   assert.match(filled, /ID 1.*ID 2.*ID 3/s);
+  await page.selectOption("#overlay-quantity", "speed");
+  await page.waitForFunction(() => /ID 1 RPM/.test(document.querySelector("#overlay-plot .u-legend").textContent));
+  assert.equal(
+    await page.evaluate(() => window.dashboard.overlay.plot.axes[1].label),
+    "RPM",
+    "the axis names the unit",
+  );
+  await page.selectOption("#overlay-quantity", "position");
 });
 
 test("a new tab shows the known motors at once, without scanning", async () => {
   const other = await browser.newPage();
+  watch(other, problems);
   await other.addInitScript(SPY);
   await other.goto(dashboard.url);
   await other.waitForFunction(() => document.querySelectorAll(".card").length === 3, null, { timeout: 5000 });
   assert.ok(!(await other.evaluate(() => window.sentOps.includes("discover"))), "no discovery");
   await other.waitForFunction(() => window.dashboard.motors.get(3)?.series.t.length > 0);
+  await other.reload();
+  await other.waitForFunction(() => document.querySelectorAll(".card").length === 3, null, { timeout: 5000 });
+  assert.ok(!(await other.evaluate(() => window.sentOps.includes("discover"))), "no discovery after a reload");
   await other.close();
 });
 
@@ -329,7 +392,7 @@ test("every malformed websocket message gets an error reply and the connection s
   assert.equal(result.open, true);
 });
 
-test("ID change keeps the library's rules; factory reset waits for the typed confirmation", async () => {
+test("ID and baud changes are verified; factory reset runs only after its typed confirmation", async () => {
   await page.click("nav button[data-view=setup]");
   await page.waitForFunction(() => document.querySelector("#bus-port option"));
   assert.equal(await page.inputValue("#bus-port"), "sim://");
@@ -354,11 +417,54 @@ test("ID change keeps the library's rules; factory reset waits for the typed con
   assert.equal(await page.isDisabled("#factory-reset"), true, "the wrong motor's phrase does not unlock it");
   await page.fill("#reset-confirm", "RESET 3");
   assert.equal(await page.isDisabled("#factory-reset"), false);
-  await page.fill("#reset-confirm", "");
+  await page.click("#factory-reset");
+  await page.waitForFunction(() =>
+    /ID 3 reset: .*ID 0 at 9600/.test(document.querySelector("#setup-text").textContent),
+  );
+  assert.equal(await page.evaluate(() => window.dashboard.motors.has(3)), false);
+  assert.equal(await page.inputValue("#reset-confirm"), "", "the confirmation is used up");
+  // bring it back: find it at 9600 as ID 0, give it its ID and rate again (each verified)
+  await page.click("nav button[data-view=motors]");
+  await page.selectOption("#discover-rates", "9600");
+  await page.click("#discover");
+  await page.waitForFunction(() => window.dashboard.motors.get(0)?.info.baudrate === 9600, null, { timeout: 20000 });
+  await page.selectOption("#discover-rates", "all");
+  await page.click("nav button[data-view=setup]");
+  await page.selectOption("#setup-motor", "0");
+  await page.fill("#new-id", "3");
+  await page.click("#change-id");
+  await page.waitForFunction(() => window.dashboard.motors.has(3) && !window.dashboard.motors.has(0), null, {
+    timeout: 10000,
+  });
+  await page.selectOption("#setup-motor", "3");
+  await page.selectOption("#new-baud", "57600");
+  await page.click("#change-baud");
+  await page.waitForFunction(() => window.dashboard.motors.get(3)?.info.baudrate === 57600, null, { timeout: 20000 });
+  assert.match(await page.textContent("#setup-text"), /now answers at 57600 bps \(verified\)/);
+  await page.evaluate(() => window.dashboard.link.request("set", { id: 3, name: "resolution", value: 1024 }));
+});
+
+test("server mode picks the port and rate; the simulated bus explains it cannot change port", async () => {
+  await page.click("nav button[data-view=setup]");
+  await page.waitForFunction(() => /open: sim:\/\//.test(document.querySelector("#bus-text").textContent));
+  assert.deepEqual(await page.locator("#bus-port option").allTextContents(), ["sim://"]);
+  assert.equal((await page.locator("#bus-baud option").allTextContents()).length, 18, "all 18 rates offered");
+  await page.evaluate(() => {
+    const other = document.createElement("option");
+    other.value = other.textContent = "/dev/ttyUSB9";
+    document.querySelector("#bus-port").append(other);
+  });
+  await page.selectOption("#bus-port", "/dev/ttyUSB9");
+  await page.click("#bus-open");
+  await page.waitForFunction(() =>
+    /not opened: .*simulated bus .*--port/.test(document.querySelector("#bus-text").textContent),
+  );
+  await page.selectOption("#bus-port", "sim://");
 });
 
 test("phone (390x844): no sideways scrolling, E-STOP in reach, touch targets of 40 px", async () => {
   const phone = await browser.newPage();
+  watch(phone, problems);
   await phone.setViewportSize({ width: 390, height: 844 });
   await phone.goto(dashboard.url);
   await phone.waitForFunction(() => document.querySelectorAll(".card").length === 3);
@@ -461,6 +567,8 @@ for (const [what, count] of [
     await page.evaluate(() => {
       delete document.querySelector("#estop").dataset.lastResult;
     });
+    const generation = await page.evaluate(() => window.dashboard.link.generation);
+    await page.locator("#motor-2 .controls input").first().focus(); // Escape works from inside a field too
     await page.keyboard.press("Escape");
     await page.waitForFunction(
       () => (document.querySelector("#estop").dataset.lastResult ?? "").startsWith("{"),
@@ -477,6 +585,24 @@ for (const [what, count] of [
       [...document.querySelectorAll(".card")].map((card) => card.dataset.control),
     );
     assert.deepEqual(shown, ["off", "off", "off"], await page.getAttribute("#estop", "data-last-result"));
+    assert.equal(await page.getAttribute("#estop", "data-rates"), "57600,115200", "sent at every known rate");
+    assert.ok((await page.evaluate(() => window.dashboard.link.generation)) > generation, "a new generation");
+    const stale = await page.evaluate(
+      (gen) =>
+        new Promise((resolve) => {
+          const ws = window.dashboard.link.ws;
+          const listener = (event) => {
+            const m = JSON.parse(event.data);
+            if (m.req !== "stale") return;
+            ws.removeEventListener("message", listener);
+            resolve(m);
+          };
+          ws.addEventListener("message", listener);
+          ws.send(JSON.stringify({ op: "hold", req: "stale", id: 1, gen }));
+        }),
+      generation,
+    );
+    assert.match(stale.error, /before emergency stop/, "a command from before the stop is refused");
   });
 }
 
@@ -525,8 +651,38 @@ test("a cross-origin websocket is refused; the console's own origin is accepted"
   );
 });
 
+test("server hung: the E-STOP is not confirmed within 1 s and says so in red; the page notices the silence", async () => {
+  await page.click("nav button[data-view=motors]");
+  dashboard.child.kill("SIGSTOP");
+  try {
+    await page.keyboard.press("Escape");
+    // "no receipt" comes from the 1 s receipt timer; the 3 s silence watchdog would have made it "failed"
+    await page.waitForFunction(() => document.querySelector("#estop").dataset.lastResult === "no receipt", null, {
+      timeout: 5000,
+    });
+    assert.match(await page.textContent("#banner-text"), /E-STOP NOT CONFIRMED/);
+    assert.equal(await page.isVisible("#banner"), true);
+    assert.equal(
+      await page.evaluate(() => getComputedStyle(document.querySelector("#banner")).backgroundColor),
+      "rgb(192, 38, 45)",
+      "red",
+    );
+    await page.waitForFunction(() => !window.dashboard.connected, null, { timeout: 5000 });
+    assert.match(await page.textContent("#banner-detail"), /no word from the server/);
+    assert.equal(await page.evaluate(() => document.querySelector("#controls").disabled), true, "controls disabled");
+  } finally {
+    dashboard.child.kill("SIGCONT");
+  }
+  await page.waitForFunction(() => window.dashboard.connected, null, { timeout: 15000 });
+  await page.waitForSelector("#banner.hidden", { state: "attached" });
+});
+
 test("server killed: banner, controls off, E-STOP says unreachable at once; restarted: reconnects, motors back", async () => {
   const port = new URL(dashboard.url).port;
+  const kept = await page.evaluate(() => window.dashboard.motors.get(1).series.t.length);
+  await page.evaluate(() => {
+    window.dashboard.retryDelays = [];
+  });
   const exited = new Promise((resolve) => dashboard.child.once("exit", resolve));
   dashboard.stop();
   await exited;
@@ -540,7 +696,15 @@ test("server killed: banner, controls off, E-STOP says unreachable at once; rest
   });
   assert.match(said, /E-STOP NOT SENT/, "said at once, in the same click");
   assert.equal(await page.getAttribute("#estop", "data-last-result"), "unreachable");
+  assert.equal(
+    await page.evaluate(() => getComputedStyle(document.querySelector("#banner")).backgroundColor),
+    "rgb(192, 38, 45)",
+    "red",
+  );
   await page.screenshot({ path: join(SHOTS, "disconnected.png") });
+  await page.waitForFunction(() => window.dashboard.retryDelays.length >= 4, null, { timeout: 5000 });
+  const delays = await page.evaluate(() => window.dashboard.retryDelays);
+  assert.deepEqual(delays.slice(0, 4), [250, 500, 1000, 2000], "reconnects with backoff");
   dashboard = await startDashboard(["--listen", `127.0.0.1:${port}`]);
   await page.waitForSelector("#banner.hidden", { state: "attached", timeout: 15000 });
   await page.waitForFunction(() => window.dashboard.connected && window.dashboard.motors.size === 3, null, {
@@ -552,6 +716,17 @@ test("server killed: banner, controls off, E-STOP says unreachable at once; rest
   const t = await page.evaluate(() => window.dashboard.samplesReceived);
   await page.waitForFunction((t) => window.dashboard.samplesReceived > t + 10, t, { timeout: 10000 });
   assert.equal(await page.evaluate(() => document.querySelector("#controls").disabled), false, "controls back");
+  await page.waitForTimeout(100);
+  const plot = await page.evaluate(() => {
+    const motor = window.dashboard.motors.get(1);
+    return { t: motor.series.t, x: motor.plot.data[0] };
+  });
+  assert.ok(plot.t.length > kept, "the plot kept what it had and carries on");
+  assert.ok(
+    plot.t.every((v, i) => i === 0 || v > plot.t[i - 1]),
+    "time only moves forward across the restart",
+  );
+  assert.ok(plot.x.at(-1) === 0 && plot.x.every((v, i) => i === 0 || v > plot.x[i - 1]), "the plot ends at now");
 });
 
 test("direct mode: without the server the page offers Web Serial through the TypeScript library", async () => {

@@ -5,6 +5,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import secrets
+import time
 from collections import deque
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
@@ -33,10 +35,11 @@ MISSING_ASSETS = (
     "run `bash scripts/dashboard-assets.sh` (or `make dashboard`) in the nurimc source tree"
 )
 FLUSH_SECONDS = 0.02  # samples and frames go out in batches 50 times a second
+TICK_SECONDS = 1.0  # a heartbeat to every page: a page that hears nothing for 3 s knows the server is gone
 LIVE_QUEUE = 256  # live-data messages waiting for a slow page before the oldest are dropped
 REPLY_BACKLOG = 1024  # replies and events waiting for a page before its messages stop being read
 MAX_NESTING = 32  # deeper JSON is refused before it is decoded
-LIVE_EVENTS = {"samples", "frames"}
+LIVE_EVENTS = {"samples", "frames", "tick"}
 POLICY_VIOLATION = 1008
 
 
@@ -98,6 +101,11 @@ class Outbox:
         self.must.append(text)
         self._ready.set()
 
+    def put_first(self, text: str) -> None:
+        """Ahead of everything waiting (the emergency stop's receipt)."""
+        self.must.appendleft(text)
+        self._ready.set()
+
     def put_live(self, text: str) -> None:
         if len(self.live) == self.live.maxlen:
             self.live_dropped += 1
@@ -141,14 +149,19 @@ def decode(text: str) -> Any:
 def create_app(config: DashboardConfig) -> Starlette:
     hub = Hub()
     state: dict[str, Any] = {}
+    boot = secrets.token_hex(8)  # a page that sees another boot knows the server restarted (new clock, no motors)
 
     def worker() -> BusWorker:
         w: BusWorker = state["worker"]
         return w
 
     async def flush() -> None:
+        next_tick = 0.0
         while True:
             await asyncio.sleep(FLUSH_SECONDS)
+            if time.monotonic() >= next_tick:
+                next_tick = time.monotonic() + TICK_SECONDS
+                hub.broadcast({"type": "tick"})
             samples = worker().take_samples()
             if samples:
                 hub.broadcast({"type": "samples", "rows": samples})
@@ -231,6 +244,8 @@ def create_app(config: DashboardConfig) -> Starlette:
     def hello(w: BusWorker) -> dict[str, Any]:
         return {
             "type": "hello",
+            "boot": boot,
+            "clock": round(time.monotonic() - w.clock_origin, 4),  # the samples' time axis, now
             "generation": w.generation,
             "motors": w.motor_list(),
             "watching": list(w.watched),
@@ -333,3 +348,5 @@ async def _receive_loop(
             loop.call_soon_threadsafe(box.put, text)
 
         worker.submit(command, done, owner=box, generation=generation)
+        if isinstance(command, c.EmergencyStop):  # received: the page stops waiting for a server that is gone
+            box.put_first(json.dumps({"type": "estop_received", "req": req, "generation": worker.generation}))

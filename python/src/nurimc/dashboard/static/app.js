@@ -8,6 +8,7 @@ const WINDOW_S = 10; // seconds of history in the live plots
 const KEEP_S = 60; // seconds kept per motor (for pause, zoom and CSV export)
 const RAW_ROWS = 500; // rows shown in the raw view (all are kept for export)
 const MAX_TOASTS = 4;
+const ESTOP_RECEIPT_MS = 1000; // the server confirms it got the stop at once; no receipt by then is an alarm
 const DEVICE_LIMIT = 655.35; // the device reports positions within ±655.35°; commands reach ±655.33°
 const MOVE_LIMIT = 655.33;
 // The controllers' 18 rates (spec/protocol.json); the one list on this page.
@@ -37,6 +38,8 @@ const dashboard = {
   stepRuns: [],
   stops: 0, // emergency stops seen by this page: a running sequence ends when this changes
   everDiscovered: false,
+  boot: null, // the server process the page last talked to (another one: restarted, new clock)
+  clockOffset: 0, // server sample time + this = seconds on this page's clock, continuous across restarts
   sequence: [],
 };
 window.dashboard = dashboard;
@@ -135,7 +138,10 @@ async function start() {
     const link = new ServerLink(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
     useLink(link);
     link.on("open", onHello);
-    link.on("closed", () => setConnected(false));
+    link.on("closed", (m) => {
+      dashboard.lostReason = m.reason ?? "";
+      setConnected(false);
+    });
     link.on("retrying", showRetry);
     link.start();
   } else {
@@ -159,11 +165,18 @@ function setConnected(connected, detail = "") {
 }
 
 function showRetry({ delay }) {
+  dashboard.retryDelays = [...(dashboard.retryDelays ?? []), delay];
+  const why = dashboard.lostReason ? ` (${dashboard.lostReason})` : "";
   $("#banner-detail").textContent =
-    `Reconnecting in ${(delay / 1000).toFixed(1)} s… If a motor is moving, cut its power.`;
+    `Reconnecting in ${(delay / 1000).toFixed(1)} s${why}… If a motor is moving, cut its power.`;
 }
 
 async function onHello(hello) {
+  if (hello.boot !== dashboard.boot) {
+    // a new server process: its samples restart from 0; shift them so the plots carry on from where they were
+    dashboard.boot = hello.boot;
+    dashboard.clockOffset = performance.now() / 1000 - (hello.clock ?? 0);
+  }
   setConnected(true);
   $("#bus-text").textContent = `${hello.port || "?"} at ${hello.baudrate} bps`;
   const known = hello.motors ?? [];
@@ -225,6 +238,9 @@ function useLink(link) {
   link.on("progress", showProgress);
   link.on("frames", (m) => addFrames(m.frames));
   link.on("estop", showEstop);
+  link.on("estop_received", () => {
+    if ($("#estop").dataset.lastResult === "sending") $("#estop").dataset.lastResult = "received";
+  });
   link.on("motors", (m) => setMotors(m.motors));
   link.on("motor_error", (m) =>
     say(m.kind === "busy" ? m.message : `ID ${m.id}: ${m.message}`, m.kind === "busy" ? "info" : "error"),
@@ -512,9 +528,11 @@ function setControl(motor, control) {
 
 function addSamples(rows) {
   dashboard.samplesReceived += rows.length;
-  for (const [id, t, position, speed, current, device] of rows) {
+  for (const [id, serverT, position, speed, current, device] of rows) {
     const motor = dashboard.motors.get(id);
     if (!motor) continue;
+    const t = serverT + dashboard.clockOffset;
+    if (motor.series.t.length && t <= lastOf(motor.series.t)) continue; // the time axis only moves forward
     const s = motor.series;
     s.t.push(t);
     s.position.push(position);
@@ -576,6 +594,7 @@ function seriesCsv(motor) {
 
 // ---- overlay of every motor ---------------------------------------------------------------
 const overlay = { plot: null, dirty: false, paused: false, ids: [] };
+dashboard.overlay = overlay;
 const OVERLAY_UNITS = { position: "°", device: "°", speed: "RPM", current: "A" };
 function rebuildOverlay() {
   overlay.plot?.destroy();
@@ -636,18 +655,31 @@ async function emergencyStop() {
   const button = $("#estop");
   if (!dashboard.link || !dashboard.connected) {
     button.dataset.lastResult = "unreachable";
-    $("#banner").classList.remove("hidden");
-    $("#banner-text").textContent = "E-STOP NOT SENT: the server is unreachable. Cut the motors' power now.";
-    say("E-STOP NOT SENT: server unreachable; cut the motors' power", "error");
+    estopAlarm("E-STOP NOT SENT: the server is unreachable. Cut the motors' power now.");
     return;
   }
   button.dataset.lastResult = "sending";
+  const stop = dashboard.stops;
+  clearTimeout(dashboard.estopTimer);
+  dashboard.estopTimer = setTimeout(() => {
+    if (button.dataset.lastResult !== "sending" || dashboard.stops !== stop) return;
+    button.dataset.lastResult = "no receipt";
+    estopAlarm(
+      `E-STOP NOT CONFIRMED: the server did not answer within ${ESTOP_RECEIPT_MS / 1000} s. Cut the motors' power now.`,
+    );
+  }, ESTOP_RECEIPT_MS);
   try {
     await dashboard.link.request("estop");
   } catch (error) {
     button.dataset.lastResult = "failed";
-    say(`E-STOP may not have reached the motors (${error.message}): cut the power`, "error");
+    estopAlarm(`E-STOP may not have reached the motors (${error.message}): cut the power`);
   }
+}
+
+function estopAlarm(text) {
+  $("#banner").classList.remove("hidden");
+  $("#banner-text").textContent = text;
+  say(text, "error");
 }
 $("#estop").onclick = emergencyStop;
 document.addEventListener("keydown", (event) => {
@@ -676,6 +708,8 @@ function showEstop(m) {
     bad.length ? "error" : "info",
   );
   $("#estop").dataset.lastResult = JSON.stringify(m.control);
+  $("#estop").dataset.rates = m.rates.join(",");
+  if (dashboard.connected && !bad.length) $("#banner").classList.add("hidden"); // a late answer replaces a "not confirmed" alarm
 }
 
 // ---- settings editor ----------------------------------------------------------------------
@@ -1068,8 +1102,13 @@ async function loadPorts() {
   $("#bus-text").textContent = `open: ${answer.current} at ${answer.baudrate} bps`;
 }
 $("#bus-open").onclick = act("open bus", async () => {
-  const answer = await ask("open_bus", { port: $("#bus-port").value, baudrate: Number($("#bus-baud").value) });
-  $("#bus-text").textContent = `open: ${answer.port} at ${answer.baudrate} bps`;
+  try {
+    const answer = await ask("open_bus", { port: $("#bus-port").value, baudrate: Number($("#bus-baud").value) });
+    $("#bus-text").textContent = `open: ${answer.port} at ${answer.baudrate} bps`;
+  } catch (error) {
+    $("#bus-text").textContent = `not opened: ${error.message}`; // said beside the picker, not only in a message
+    throw error;
+  }
 });
 
 // ---- backup / restore ---------------------------------------------------------------------

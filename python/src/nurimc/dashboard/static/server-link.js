@@ -2,6 +2,8 @@
 // Every request carries the emergency-stop generation the page has seen ("gen"), so the server
 // refuses anything the page sent before a stop it had not yet heard of.
 const BACKOFF_MS = [250, 500, 1000, 2000, 4000]; // then every 4 s
+const SILENCE_MS = 3000; // the server ticks every second: this long without a word and it is gone (hung, cut off)
+const CONNECT_MS = 4000; // a connection attempt that has not opened by then is given up and retried
 
 export class ServerLink {
   constructor(url) {
@@ -30,22 +32,29 @@ export class ServerLink {
       return;
     }
     this.ws = ws;
+    const giveUp = setTimeout(
+      () => this.lost(ws, { code: 0, reason: "no answer to the connection attempt" }),
+      CONNECT_MS,
+    );
     ws.onopen = () => {
+      clearTimeout(giveUp);
       this.connected = true;
       this.attempt = 0;
       this.retryAt = null;
+      this.lastHeard = Date.now();
+      clearInterval(this.watchdog);
+      this.watchdog = setInterval(() => {
+        if (Date.now() - this.lastHeard > SILENCE_MS)
+          this.lost(ws, { code: 0, reason: `no word from the server for ${SILENCE_MS / 1000} s` });
+      }, 250);
     };
     ws.onclose = (event) => {
-      const was = this.connected;
-      this.connected = false;
-      for (const { reject } of this.pending.values())
-        reject(new Error("the connection to the server was lost; the command may not have run"));
-      this.pending.clear();
-      this.emit("closed", { code: event.code, reason: event.reason, was });
-      this.scheduleRetry();
+      clearTimeout(giveUp);
+      this.lost(ws, event);
     };
     ws.onerror = () => {}; // onclose follows and says it
     ws.onmessage = (event) => {
+      this.lastHeard = Date.now();
       let message;
       try {
         message = JSON.parse(event.data);
@@ -54,6 +63,26 @@ export class ServerLink {
       }
       this.receive(message);
     };
+  }
+
+  /** The connection is gone (closed, or silent too long): fail what waits on it, say so, retry. */
+  lost(ws, { code, reason }) {
+    if (ws !== this.ws) return; // an older connection, already dealt with
+    this.ws = null;
+    clearInterval(this.watchdog);
+    ws.onclose = ws.onmessage = ws.onopen = null;
+    try {
+      ws.close();
+    } catch {
+      /* already closing */
+    }
+    const was = this.connected;
+    this.connected = false;
+    for (const { reject } of this.pending.values())
+      reject(new Error("the connection to the server was lost; the command may not have run"));
+    this.pending.clear();
+    this.emit("closed", { code, reason, was });
+    this.scheduleRetry();
   }
 
   scheduleRetry() {
@@ -68,6 +97,8 @@ export class ServerLink {
   /** Try now instead of waiting for the backoff. */
   retryNow() {
     if (this.connected) return;
+    clearTimeout(this.timer);
+    if (this.ws) this.lost(this.ws, { code: 0, reason: "retrying now" });
     clearTimeout(this.timer);
     this.open();
   }

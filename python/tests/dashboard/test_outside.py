@@ -1,0 +1,159 @@
+"""The console tried from outside: the real `nurimc dashboard --sim` process, a real websocket client
+on 127.0.0.1. What the in-process tests show through Starlette's TestClient, checked again through
+uvicorn, the websocket protocol and TCP: the emergency stop behind hundreds of queued commands,
+every malformed message answered on an open connection, and no reply ever dropped."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from websockets.sync.client import ClientConnection, connect
+from websockets.typing import Origin
+
+LISTEN = ("--listen", "127.0.0.1:0")  # a free port on loopback
+SIM_MOTORS = {1: 115200, 2: 115200, 3: 57600}  # nurimc.dashboard.simulated.SIM_MOTORS
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[str]:
+    """host:port of a fresh console process on a simulated bus, its motors discovered."""
+    child = subprocess.Popen(
+        [sys.executable, "-c", "from nurimc.cli.app import main; main()", *("dashboard", "--sim"), *LISTEN],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        assert child.stdout is not None
+        line = child.stdout.readline()
+        match = re.search(r"ready: http://(\S+)/", line)
+        assert match, f"the console did not start: {line}{child.stdout.read() if child.poll() is not None else ''}"
+        host = match.group(1)
+        with open_socket(host) as ws:
+            found = ask(ws, "discover", rates=sorted(set(SIM_MOTORS.values())))
+            assert found["ok"], found
+        yield host
+        assert child.poll() is None, "the console stayed up through every test"
+    finally:
+        child.terminate()
+        child.wait(timeout=10)
+
+
+def open_socket(host: str) -> ClientConnection:
+    return connect(f"ws://{host}/ws", origin=Origin(f"http://{host}"), max_queue=None, max_size=None)
+
+
+def replies(ws: ClientConnection, count: int, timeout: float = 30.0) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    deadline = time.monotonic() + timeout
+    while len(out) < count:
+        message = json.loads(ws.recv(timeout=max(0.1, deadline - time.monotonic())))
+        if message.get("type") == "reply":
+            out.append(message)
+    return out
+
+
+def ask(ws: ClientConnection, op: str, **fields: Any) -> dict[str, Any]:
+    ws.send(json.dumps({"op": op, "req": op, **fields}))
+    while True:
+        message = json.loads(ws.recv(timeout=30))
+        if message.get("type") == "reply" and message.get("req") == op:
+            return message  # type: ignore[no-any-return]
+
+
+def controls(ws: ClientConnection) -> dict[int, Any]:
+    return {i: ask(ws, "read_settings", id=i)["result"]["settings"]["control"] for i in SIM_MOTORS}
+
+
+@pytest.mark.parametrize(("queued", "count"), [("hold", 500), ("move", 300)])
+def test_estop_behind_queued_commands_leaves_every_motor_with_control_off(server: str, queued: str, count: int) -> None:
+    with open_socket(server) as ws:
+        assert ask(ws, "watch", ids=list(SIM_MOTORS))["ok"]
+        for n in range(count):
+            extra = {"degrees": (n % 20) * 5 - 50, "rpm": 120} if queued == "move" else {}
+            ws.send(json.dumps({"op": queued, "req": n, "id": 1 + n % 3, **extra}))
+        ws.send(json.dumps({"op": "estop", "req": "stop"}))
+        got = replies(ws, count + 1)
+        assert sorted(str(r["req"]) for r in got) == sorted([*map(str, range(count)), "stop"]), "one reply each"
+        stop = next(r for r in got if r["req"] == "stop")
+        assert stop["ok"], stop
+        assert stop["result"]["rates"] == [57600, 115200], "control off was broadcast at every known rate"
+        assert stop["result"]["control"] == {"1": "off", "2": "off", "3": "off"}, stop
+        after = got[got.index(stop) + 1 :]
+        assert all(not r["ok"] for r in after), "nothing sent before the stop ran after it"
+        time.sleep(0.3)  # anything that slipped through would show by now
+        assert controls(ws) == {1: "off", 2: "off", 3: "off"}
+
+
+BAD: list[str | bytes] = [
+    b"\x00\x01\x02binary",
+    "{not json",
+    "[" * 5000 + "]" * 5000,
+    '{"op":"move","id":1,"degrees":"inf","rpm":60}',
+    '{"op":"move","id":1,"degrees":Infinity,"rpm":60}',
+    '{"op":"move","id":1,"degrees":1e308,"rpm":60}',
+    '{"op":"move","id":1,"degrees":1e400,"rpm":60}',
+    '{"op":"run","id":1,"rpm":30,"ramp":1e300}',
+    '{"op":"restore","document":{"format":"nurimc-backup/1","motors":[{"id":1,"settings":{"ratio":"inf"}}]}}',
+    '{"op":"move","id":"1","degrees":10,"rpm":60}',
+    '{"op":"move","id":1,"degrees":[10],"rpm":60}',
+    '{"op":"move","id":1,"degrees":10,"rpm":-60}',
+    '{"op":"set","id":1,"name":"position-kp","value":true}',
+    '{"op":"watch","ids":"1,2"}',
+    '{"op":"step","id":1,"amplitude":10,"duration":1e400}',
+    "[]",
+    '{"op":null}',
+]
+
+
+def test_every_malformed_message_gets_an_error_reply_on_an_open_connection(server: str) -> None:
+    with open_socket(server) as ws:
+        for message in BAD:
+            ws.send(message)
+            (reply,) = replies(ws, 1)
+            shown = message[:60]
+            assert reply["ok"] is False and reply["error"], shown
+            assert "internal error" not in reply["error"], (shown, reply["error"])
+        assert ask(ws, "read_settings", id=1)["ok"], "the same connection still works"
+
+
+def test_3000_requests_get_3000_replies_each_done_or_busy(server: str) -> None:
+    total = 3000
+    with open_socket(server) as ws:
+        for n in range(total):
+            ws.send(json.dumps({"op": "read_settings", "req": n, "id": 1 + n % 3}))
+        got = replies(ws, total, timeout=60)
+        assert sorted(r["req"] for r in got) == list(range(total)), "every request answered exactly once"
+        refused = [r for r in got if not r["ok"]]
+        assert all(re.match(r"busy: .* try again", r["error"]) for r in refused), {r["error"] for r in refused}
+        assert total - len(refused) >= 256, "the first page-full were carried out"
+
+
+def test_hello_heartbeat_and_stop_receipt(server: str) -> None:
+    """What lets a page notice a hung or restarted server: its boot and clock, a tick every second,
+    and a receipt for the stop ahead of everything else waiting for that page."""
+    with open_socket(server) as ws:
+        hello = json.loads(ws.recv(timeout=5))
+        assert hello["type"] == "hello" and len(hello["boot"]) == 16 and hello["clock"] > 0
+        began = time.monotonic()
+        while json.loads(ws.recv(timeout=3))["type"] != "tick":
+            pass
+        assert time.monotonic() - began < 5, "ticks keep coming (every second)"
+        for n in range(200):
+            ws.send(json.dumps({"op": "hold", "req": n, "id": 1 + n % 3}))
+        ws.send(json.dumps({"op": "estop", "req": "stop"}))
+        seen: list[tuple[str, Any]] = []
+        while ("reply", "stop") not in seen:
+            message = json.loads(ws.recv(timeout=30))
+            seen.append((message["type"], message.get("req")))
+        assert ("estop_received", "stop") in seen
+        assert seen.index(("estop_received", "stop")) < seen.index(("reply", "stop"))
+    with open_socket(server) as again:
+        assert json.loads(again.recv(timeout=5))["boot"] == hello["boot"], "the same process, the same boot"
