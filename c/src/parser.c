@@ -2,6 +2,15 @@
  * The stream parser. The rule (conformance/README.md): where a whole valid frame starts,
  * take it; otherwise drop one byte and look again from the next. Candidates are rejected
  * as soon as their bytes allow (size byte, mode), so the buffer holds at most one frame.
+ *
+ * Two paths, one rule (docs/performance.md):
+ * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), a pushed byte
+ *   only extends it: a header byte, a size check, a mode check, a running checksum sum, and at
+ *   the candidate's last byte a compare and the unpack. O(1) per byte, no re-scan, no copy.
+ *   nurimc_parser_feed judges whole candidates in place in the caller's bytes, no copy either.
+ * - the re-scan (scan()): whenever a held candidate is rejected, or a call has taken a frame
+ *   and kept bytes after it, the general scan judges the held bytes from the start, as the rule
+ *   says; it is rare (noise, corruption) and bounded by the 12-byte buffer.
  */
 #include "nurimc.h"
 
@@ -11,18 +20,31 @@ void nurimc_unpack_valid(const uint8_t *frame, nurimc_message_type type, nurimc_
 
 enum verdict { WAIT, REJECT, VALID };
 
+/* parser->state: buf[0..length) is one undecided candidate, a lone FF or nothing (the fast
+   path may extend it), or it holds bytes the general scan has not judged yet. */
+enum { CANDIDATE = 0, RESCAN = 1 };
+
+enum { ID_OFFSET = 2, SIZE_OFFSET = 3, CHECKSUM_OFFSET = 4, MODE_OFFSET = 5, DATA_OFFSET = 6 };
+
+/* The checksum of a whole frame of `length` (>= 6) bytes. */
+static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
+    unsigned sum = (unsigned)b[ID_OFFSET] + b[SIZE_OFFSET] + b[MODE_OFFSET], i;
+    for (i = DATA_OFFSET; i < length; i++) sum += b[i];
+    return (uint8_t)~sum;
+}
+
 /* Judge the candidate at b[0] (b[0..1] = FF FE, `avail` bytes present). Counts rejections. */
 static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t avail, nurimc_message *out) {
     uint8_t size;
     uint8_t plus_one;
     if (avail < 4) return WAIT;
-    size = b[3];
+    size = b[SIZE_OFFSET];
     if (size < 2 || size > NURIMC_MAX_SIZE) {
         stats->bad_size++;
         return REJECT;
     }
     if (avail < 6) return WAIT;
-    plus_one = nurimc_type_by_mode_plus_one[b[5]];
+    plus_one = nurimc_type_by_mode_plus_one[b[MODE_OFFSET]];
     if (plus_one == 0) {
         stats->unknown_mode++;
         return REJECT;
@@ -32,7 +54,7 @@ static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t a
         return REJECT;
     }
     if (avail < (size_t)size + NURIMC_FRAME_OVERHEAD) return WAIT;
-    if (b[4] != nurimc_checksum(b, (size_t)size + NURIMC_FRAME_OVERHEAD)) {
+    if (b[CHECKSUM_OFFSET] != frame_checksum(b, (unsigned)size + NURIMC_FRAME_OVERHEAD)) {
         stats->bad_checksum++;
         return REJECT;
     }
@@ -76,6 +98,19 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
     }
     if (pos > 0) memmove(buf, buf + pos, n - pos);
     p->length = (uint8_t)(n - pos);
+    /* Without a frame taken, what is left is one undecided candidate (or FF, or nothing): the
+       fast path takes over with the running sum of its checksummed bytes. After a frame, the
+       bytes behind it are unjudged: the next call scans again. */
+    if (found && p->length > 0) {
+        p->state = RESCAN;
+    } else {
+        unsigned sum = 0, i;
+        for (i = ID_OFFSET; i < p->length; i++) {
+            if (i != CHECKSUM_OFFSET) sum += buf[i];
+        }
+        p->sum = (uint8_t)sum;
+        p->state = CANDIDATE;
+    }
     return found;
 }
 
@@ -83,15 +118,83 @@ void nurimc_parser_init(nurimc_parser *parser) {
     if (parser != NULL) memset(parser, 0, sizeof *parser);
 }
 
-int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
-    if (parser == NULL || out == NULL) return 0;
-    if (parser->length >= sizeof parser->buf) { /* cannot happen: a full frame is always decided */
-        parser->stats.dropped_bytes++;
-        memmove(parser->buf, parser->buf + 1, sizeof parser->buf - 1u);
-        parser->length--;
+/* The held candidate is complete and its checksum sum is in p->sum: take it or re-scan. */
+static int complete(nurimc_parser *p, nurimc_message *out) {
+    if (((p->sum + p->buf[CHECKSUM_OFFSET]) & 0xFFu) == 0xFFu) { /* checksum = ~sum */
+        p->length = 0;
+        p->stats.frames++;
+        nurimc_unpack_valid(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
+        return 1;
     }
-    parser->buf[parser->length++] = byte;
-    return scan(parser, 0, out);
+    return scan(p, 0, out);
+}
+
+int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+    nurimc_parser *p = parser;
+    unsigned n;
+    if (p == NULL || out == NULL) return 0;
+    n = p->length;
+    if (p->state == CANDIDATE) {
+        if (n >= DATA_OFFSET) { /* a data byte or the last byte of an accepted candidate */
+            p->buf[n++] = byte;
+            p->sum = (uint8_t)(p->sum + byte);
+            p->length = (uint8_t)n;
+            if (n < (unsigned)p->buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD) return 0;
+            return complete(p, out);
+        }
+        switch (n) {
+        case 0:
+            if (byte == NURIMC_HEADER_0) {
+                p->buf[0] = byte;
+                p->length = 1;
+            } else {
+                p->stats.dropped_bytes++;
+            }
+            return 0;
+        case 1:
+            if (byte == NURIMC_HEADER_1) {
+                p->buf[1] = byte;
+                p->length = 2;
+            } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
+                p->stats.dropped_bytes++;
+            } else {
+                p->stats.dropped_bytes += 2;
+                p->length = 0;
+            }
+            return 0;
+        case ID_OFFSET:
+            p->buf[ID_OFFSET] = byte;
+            p->sum = byte;
+            p->length = 3;
+            return 0;
+        case SIZE_OFFSET:
+            if (byte < 2 || byte > NURIMC_MAX_SIZE) break; /* rejected: the scan counts it */
+            p->buf[SIZE_OFFSET] = byte;
+            p->sum = (uint8_t)(p->sum + byte);
+            p->length = 4;
+            return 0;
+        case CHECKSUM_OFFSET:
+            p->buf[CHECKSUM_OFFSET] = byte;
+            p->length = 5;
+            return 0;
+        default: { /* MODE_OFFSET */
+            uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
+            if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != p->buf[SIZE_OFFSET]) break;
+            p->buf[MODE_OFFSET] = byte;
+            p->sum = (uint8_t)(p->sum + byte);
+            p->length = DATA_OFFSET;
+            if (p->buf[SIZE_OFFSET] > 2) return 0;
+            return complete(p, out);
+        }
+        }
+    } else if (n >= sizeof p->buf) { /* cannot happen: a full frame is always decided */
+        p->stats.dropped_bytes++;
+        memmove(p->buf, p->buf + 1, sizeof p->buf - 1u);
+        n--;
+    }
+    p->buf[n] = byte;
+    p->length = (uint8_t)(n + 1);
+    return scan(p, 0, out);
 }
 
 size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
@@ -101,17 +204,26 @@ size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t len
     if (parser == NULL || (data == NULL && length > 0)) return 0;
     while (i < length) {
         if (parser->length == 0) { /* fast path: judge candidates in place, no copy */
+            const uint8_t *b = data + i;
             size_t avail = length - i;
-            if (data[i] != NURIMC_HEADER_0 || (avail >= 2 && data[i + 1] != NURIMC_HEADER_1)) {
-                parser->stats.dropped_bytes++;
-                i++;
+            if (b[0] != NURIMC_HEADER_0) { /* noise: skip to the next FF */
+                const uint8_t *ff = memchr(b, NURIMC_HEADER_0, avail);
+                size_t skip = ff != NULL ? (size_t)(ff - b) : avail;
+                parser->stats.dropped_bytes += (uint32_t)skip;
+                i += skip;
                 continue;
             }
             if (avail >= 2) {
-                enum verdict v = judge(&parser->stats, data + i, avail, &msg);
+                enum verdict v;
+                if (b[1] != NURIMC_HEADER_1) {
+                    parser->stats.dropped_bytes++;
+                    i++;
+                    continue;
+                }
+                v = judge(&parser->stats, b, avail, &msg);
                 if (v == VALID) {
                     parser->stats.frames++;
-                    i += (size_t)data[i + 3] + NURIMC_FRAME_OVERHEAD;
+                    i += (size_t)b[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD;
                     count++;
                     if (callback != NULL) callback(context, &msg);
                     continue;
@@ -122,6 +234,7 @@ size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t len
                     continue;
                 }
             }
+            /* an undecided candidate at the end of the chunk: hold it, byte by byte */
         }
         if (nurimc_parser_push(parser, data[i++], &msg)) {
             count++;
@@ -140,6 +253,7 @@ void nurimc_parser_clear(nurimc_parser *parser) {
     if (parser == NULL) return;
     parser->stats.dropped_bytes += parser->length;
     parser->length = 0;
+    parser->state = CANDIDATE;
 }
 
 size_t nurimc_parser_pending(const nurimc_parser *parser) {
