@@ -118,8 +118,15 @@ void nurimc_parser_init(nurimc_parser *parser) {
     if (parser != NULL) memset(parser, 0, sizeof *parser);
 }
 
+/* Out of line, so the per-byte path of push needs no saved registers and tail-calls these. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
 /* The held candidate is complete and its checksum sum is in p->sum: take it or re-scan. */
-static int complete(nurimc_parser *p, nurimc_message *out) {
+static NOINLINE int complete(nurimc_parser *p, nurimc_message *out) {
     if (((p->sum + p->buf[CHECKSUM_OFFSET]) & 0xFFu) == 0xFFu) { /* checksum = ~sum */
         p->length = 0;
         p->stats.frames++;
@@ -129,12 +136,26 @@ static int complete(nurimc_parser *p, nurimc_message *out) {
     return scan(p, 0, out);
 }
 
+/* Add `byte` to the held bytes and judge them all again (after a rejection or a frame). */
+static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message *out) {
+    unsigned n = p->length;
+    if (n >= sizeof p->buf) { /* cannot happen: a full frame is always decided */
+        p->stats.dropped_bytes++;
+        memmove(p->buf, p->buf + 1, sizeof p->buf - 1u);
+        n--;
+    }
+    p->buf[n] = byte;
+    p->length = (uint8_t)(n + 1);
+    return scan(p, 0, out);
+}
+
 int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
     nurimc_parser *p = parser;
     unsigned n;
     if (p == NULL || out == NULL) return 0;
     n = p->length;
-    if (p->state == CANDIDATE) {
+    if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
+    {
         if (n >= DATA_OFFSET) { /* a data byte or the last byte of an accepted candidate */
             p->buf[n++] = byte;
             p->sum = (uint8_t)(p->sum + byte);
@@ -187,14 +208,8 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
             return complete(p, out);
         }
         }
-    } else if (n >= sizeof p->buf) { /* cannot happen: a full frame is always decided */
-        p->stats.dropped_bytes++;
-        memmove(p->buf, p->buf + 1, sizeof p->buf - 1u);
-        n--;
     }
-    p->buf[n] = byte;
-    p->length = (uint8_t)(n + 1);
-    return scan(p, 0, out);
+    return push_and_scan(p, byte, out); /* a rejection: the scan counts it and looks further */
 }
 
 size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
