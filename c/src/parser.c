@@ -4,9 +4,10 @@
  * as soon as their bytes allow (size byte, mode), so the buffer holds at most one frame.
  *
  * Two paths, one rule (docs/performance.md):
- * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), a pushed byte
- *   only extends it: a header byte, a size check, a mode check, a running checksum sum, and at
- *   the candidate's last byte a compare and the unpack. O(1) per byte, no re-scan, no copy.
+ * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), `next` says
+ *   which byte next needs a look. Bytes before it (the ID, the checksum, data bytes) are only
+ *   stored; the others get one check each (FF, FE, the size byte, the mode byte, and at the
+ *   candidate's last byte the checksum and the unpack). O(1) per byte, no re-scan, no copy.
  *   nurimc_parser_feed judges whole candidates in place in the caller's bytes, no copy either.
  * - the re-scan (scan()): whenever a held candidate is rejected, or a call has taken a frame
  *   and kept bytes after it, the general scan judges the held bytes from the start, as the rule
@@ -26,10 +27,23 @@ enum { CANDIDATE = 0, RESCAN = 1 };
 
 enum { ID_OFFSET = 2, SIZE_OFFSET = 3, CHECKSUM_OFFSET = 4, MODE_OFFSET = 5, DATA_OFFSET = 6 };
 
-/* The checksum of a whole frame of `length` (>= 6) bytes. */
+#if NURIMC_MAX_FRAME_LENGTH != 12
+#error "frame_checksum is unrolled for frames of at most 12 bytes"
+#endif
+
+/* The checksum of a whole frame of `length` (6..12) bytes; unrolled, as a loop over at most
+   six data bytes costs more in set-up (or in vector code) than it saves. */
 static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
-    unsigned sum = (unsigned)b[ID_OFFSET] + b[SIZE_OFFSET] + b[MODE_OFFSET], i;
-    for (i = DATA_OFFSET; i < length; i++) sum += b[i];
+    unsigned sum = (unsigned)b[ID_OFFSET] + b[SIZE_OFFSET] + b[MODE_OFFSET];
+    switch (length) {
+    case 12: sum += b[11]; /* fall through */
+    case 11: sum += b[10]; /* fall through */
+    case 10: sum += b[9];  /* fall through */
+    case 9: sum += b[8];   /* fall through */
+    case 8: sum += b[7];   /* fall through */
+    case 7: sum += b[6];   /* fall through */
+    default: break;
+    }
     return (uint8_t)~sum;
 }
 
@@ -99,17 +113,20 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
     if (pos > 0) memmove(buf, buf + pos, n - pos);
     p->length = (uint8_t)(n - pos);
     /* Without a frame taken, what is left is one undecided candidate (or FF, or nothing): the
-       fast path takes over with the running sum of its checksummed bytes. After a frame, the
-       bytes behind it are unjudged: the next call scans again. */
-    if (found && p->length > 0) {
+       fast path takes over, told which byte next needs a look. After a frame, the bytes behind
+       it are unjudged: the next call scans again. */
+    if (found && p->length > 1) { /* (a single byte left is a lone FF: nothing to judge) */
         p->state = RESCAN;
+        p->next = 0;
     } else {
-        unsigned sum = 0, i;
-        for (i = ID_OFFSET; i < p->length; i++) {
-            if (i != CHECKSUM_OFFSET) sum += buf[i];
-        }
-        p->sum = (uint8_t)sum;
+        unsigned held = p->length, sum = 0, i;
+        for (i = ID_OFFSET; i < held; i++) sum += buf[i];
         p->state = CANDIDATE;
+        p->sum = (uint8_t)sum;
+        p->next = (uint8_t)(held < 2   ? 0u
+                            : held < 4 ? SIZE_OFFSET
+                            : held < 6 ? MODE_OFFSET
+                                       : buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD - 1u);
     }
     return found;
 }
@@ -125,17 +142,6 @@ void nurimc_parser_init(nurimc_parser *parser) {
 #define NOINLINE
 #endif
 
-/* The held candidate is complete and its checksum sum is in p->sum: take it or re-scan. */
-static NOINLINE int complete(nurimc_parser *p, nurimc_message *out) {
-    if (((p->sum + p->buf[CHECKSUM_OFFSET]) & 0xFFu) == 0xFFu) { /* checksum = ~sum */
-        p->length = 0;
-        p->stats.frames++;
-        nurimc_unpack_valid(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
-        return 1;
-    }
-    return scan(p, 0, out);
-}
-
 /* Add `byte` to the held bytes and judge them all again (after a rejection or a frame). */
 static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message *out) {
     unsigned n = p->length;
@@ -149,67 +155,74 @@ static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message
     return scan(p, 0, out);
 }
 
+/* The candidate's last byte (its checks so far all passed; p->sum holds the sum of its bytes
+   from the ID on, checksum byte included): take the frame or re-scan. */
+static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_message *out) {
+    p->buf[n] = byte;
+    p->length = (uint8_t)(n + 1);
+    if (((p->sum + byte) & 0xFFu) != 0xFFu) return scan(p, 0, out); /* checksum = ~(sum of the rest) */
+    p->length = 0;
+    p->next = 0;
+    p->stats.frames++;
+    nurimc_unpack_valid(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
+    return 1;
+}
+
 int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
     nurimc_parser *p = parser;
     unsigned n;
     if (p == NULL || out == NULL) return 0;
     n = p->length;
-    if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
-    {
-        if (n >= DATA_OFFSET) { /* a data byte or the last byte of an accepted candidate */
-            p->buf[n++] = byte;
-            p->sum = (uint8_t)(p->sum + byte);
-            p->length = (uint8_t)n;
-            if (n < (unsigned)p->buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD) return 0;
-            return complete(p, out);
-        }
-        switch (n) {
-        case 0:
-            if (byte == NURIMC_HEADER_0) {
-                p->buf[0] = byte;
-                p->length = 1;
-            } else {
-                p->stats.dropped_bytes++;
-            }
-            return 0;
-        case 1:
-            if (byte == NURIMC_HEADER_1) {
-                p->buf[1] = byte;
-                p->length = 2;
-            } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
-                p->stats.dropped_bytes++;
-            } else {
-                p->stats.dropped_bytes += 2;
-                p->length = 0;
-            }
-            return 0;
-        case ID_OFFSET:
-            p->buf[ID_OFFSET] = byte;
-            p->sum = byte;
-            p->length = 3;
-            return 0;
-        case SIZE_OFFSET:
-            if (byte < 2 || byte > NURIMC_MAX_SIZE) break; /* rejected: the scan counts it */
-            p->buf[SIZE_OFFSET] = byte;
-            p->sum = (uint8_t)(p->sum + byte);
-            p->length = 4;
-            return 0;
-        case CHECKSUM_OFFSET:
-            p->buf[CHECKSUM_OFFSET] = byte;
-            p->length = 5;
-            return 0;
-        default: { /* MODE_OFFSET */
-            uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
-            if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != p->buf[SIZE_OFFSET]) break;
-            p->buf[MODE_OFFSET] = byte;
-            p->sum = (uint8_t)(p->sum + byte);
-            p->length = DATA_OFFSET;
-            if (p->buf[SIZE_OFFSET] > 2) return 0;
-            return complete(p, out);
-        }
-        }
+    if (n < p->next) { /* the ID, checksum or a data byte of a candidate: nothing to check yet */
+        p->buf[n] = byte;
+        p->length = (uint8_t)(n + 1);
+        p->sum = (uint8_t)(p->sum + byte);
+        return 0;
     }
-    return push_and_scan(p, byte, out); /* a rejection: the scan counts it and looks further */
+    if (n == 0) { /* (never so in state RESCAN, which holds at least two bytes) */
+        if (byte == NURIMC_HEADER_0) {
+            p->buf[0] = byte;
+            p->length = 1;
+        } else {
+            p->stats.dropped_bytes++;
+        }
+        return 0;
+    }
+    if (n == 1) { /* buf holds FF (in state RESCAN too) */
+        if (byte == NURIMC_HEADER_1) {
+            p->buf[1] = byte;
+            p->length = 2;
+            p->next = SIZE_OFFSET; /* the ID byte needs no look */
+            p->sum = 0;
+        } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
+            p->stats.dropped_bytes++;
+        } else {
+            p->stats.dropped_bytes += 2;
+            p->length = 0;
+        }
+        return 0;
+    }
+    if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
+    if (n == SIZE_OFFSET) {
+        if (byte < 2 || byte > NURIMC_MAX_SIZE) return push_and_scan(p, byte, out); /* the scan counts it */
+        p->buf[SIZE_OFFSET] = byte;
+        p->length = 4;
+        p->sum = (uint8_t)(p->sum + byte);
+        p->next = MODE_OFFSET; /* the checksum byte needs no look */
+        return 0;
+    }
+    if (n == MODE_OFFSET) {
+        uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
+        unsigned size = p->buf[SIZE_OFFSET];
+        if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) return push_and_scan(p, byte, out);
+        if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
+        p->buf[MODE_OFFSET] = byte;
+        p->length = DATA_OFFSET;
+        p->sum = (uint8_t)(p->sum + byte);
+        p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
+        return 0;
+    }
+    return take(p, n, byte, out);
 }
 
 size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
@@ -268,6 +281,7 @@ void nurimc_parser_clear(nurimc_parser *parser) {
     if (parser == NULL) return;
     parser->stats.dropped_bytes += parser->length;
     parser->length = 0;
+    parser->next = 0;
     parser->state = CANDIDATE;
 }
 
