@@ -1,6 +1,6 @@
 /*
  * Throughput of the codec and the stream parser. Prints one JSON object.
- * Usage: nurimc_bench [FRAMES]   (run_bench.py runs it natively and under callgrind)
+ * Usage: nurimc_bench [FRAMES [ROUNDS]]   (run_bench.py runs it natively and under callgrind)
  * The library's parser runs against hand-written baselines in the same run (docs/performance.md).
  * Each phase is its own non-inlined function so callgrind can count its instructions alone.
  */
@@ -14,6 +14,7 @@
 
 #define NOINLINE __attribute__((noinline))
 
+/* CPU time of this thread: on a shared machine, time spent preempted is not the code's. */
 static double seconds(void) {
     struct timespec ts;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
@@ -159,6 +160,33 @@ static NOINLINE size_t bench_naive_push(const stream *s) {
     return frames;
 }
 
+/* The floor of any byte-at-a-time parser: the same loop calling a function that only keeps the
+   byte. It parses nothing; it shows what the loop and the call per byte cost by themselves. */
+typedef struct floor_state {
+    uint8_t last;
+} floor_state;
+
+static NOINLINE int floor_push(floor_state *f, uint8_t byte, nurimc_message *out) {
+    (void)out;
+    f->last = byte;
+    return 0;
+}
+
+static NOINLINE size_t bench_push_floor(const stream *s) {
+    floor_state state = {0};
+    nurimc_message msg;
+    size_t at, frames = 0;
+    memset(&msg, 0, sizeof msg);
+    for (at = 0; at < s->length; at++) {
+        if (floor_push(&state, s->bytes[at], &msg)) {
+            frames++;
+            sink += msg.id;
+        }
+    }
+    sink += state.last;
+    return s->frames; /* (it takes none) */
+}
+
 /* A memchr parser: the held tail and the new read in one buffer, memchr to the next FF, check
    FE and the size byte, nurimc_decode the candidate; on failure go on from the next byte. */
 typedef struct memchr_parser {
@@ -222,21 +250,26 @@ typedef struct phase {
     size_t ok;   /* frames the last round returned */
 } phase;
 
-#define ROUNDS 21
+#define ROUNDS 21 /* default; run_bench.py runs one round under callgrind */
 
 int main(int argc, char **argv) {
     size_t frames = argc > 1 ? (size_t)strtoul(argv[1], NULL, 10) : 1000000u;
+    int rounds = argc > 2 && atoi(argv[2]) > 0 ? atoi(argv[2]) : ROUNDS;
     stream s = make_stream(frames);
     phase phases[] = {
-        {"decode_frames_per_s", bench_decode, 0, 0},   {"encode_frames_per_s", bench_encode, 0, 0},
-        {"parse_feed_frames_per_s", bench_feed, 0, 0}, {"baseline_memchr_feed_frames_per_s", bench_memchr_feed, 0, 0},
-        {"parse_push_frames_per_s", bench_push, 0, 0}, {"baseline_naive_push_frames_per_s", bench_naive_push, 0, 0},
+        {"decode_frames_per_s", bench_decode, 0, 0},
+        {"encode_frames_per_s", bench_encode, 0, 0},
+        {"parse_feed_frames_per_s", bench_feed, 0, 0},
+        {"baseline_memchr_feed_frames_per_s", bench_memchr_feed, 0, 0},
+        {"parse_push_frames_per_s", bench_push, 0, 0},
+        {"baseline_naive_push_frames_per_s", bench_naive_push, 0, 0},
+        {"push_loop_floor_frames_per_s", bench_push_floor, 0, 0},
     };
     size_t count = sizeof phases / sizeof phases[0], i;
     int round;
-    /* Interleaved rounds, best of ROUNDS per phase: a library phase and its baseline see the
+    /* Interleaved rounds, best of `rounds` per phase: a library phase and its baseline see the
        same machine conditions, and the best round is the least disturbed one. */
-    for (round = 0; round < ROUNDS; round++) {
+    for (round = 0; round < rounds; round++) {
         for (i = 0; i < count; i++) {
             double start = seconds(), elapsed;
             phases[i].ok = phases[i].fn(&s);
@@ -250,7 +283,7 @@ int main(int argc, char **argv) {
             return 1;
         }
     }
-    printf("{\"frames\": %zu, \"stream_bytes\": %zu, \"rounds\": %d", frames, s.length, ROUNDS);
+    printf("{\"frames\": %zu, \"stream_bytes\": %zu, \"rounds\": %d", frames, s.length, rounds);
     for (i = 0; i < count; i++) printf(", \"%s\": %.0f", phases[i].name, phases[i].best);
     printf("}\n");
     free(s.bytes);
