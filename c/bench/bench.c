@@ -1,6 +1,7 @@
 /*
  * Throughput of the codec and the stream parser. Prints one JSON object.
- * Usage: nurimc_bench [FRAMES]   (run_bench.py runs it natively and under callgrind)
+ * Usage: nurimc_bench [FRAMES [ROUNDS]]   (run_bench.py runs it natively and under callgrind)
+ * The library's parser runs against hand-written baselines in the same run (docs/performance.md).
  * Each phase is its own non-inlined function so callgrind can count its instructions alone.
  */
 #define _POSIX_C_SOURCE 200809L
@@ -13,9 +14,10 @@
 
 #define NOINLINE __attribute__((noinline))
 
+/* CPU time of this thread: on a shared machine, time spent preempted is not the code's. */
 static double seconds(void) {
     struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
@@ -106,36 +108,184 @@ static NOINLINE size_t bench_push(const stream *s) {
     return frames;
 }
 
+/* ---- hand-written baselines: what a user would write without the library's parser ----------- */
+
+/* A naive byte state machine: wait for FF FE, take the size byte, collect size + 4 bytes, then
+   nurimc_decode them; on any failure start again at the next byte (it drops the whole candidate,
+   so unlike the rule it may miss a frame hidden inside a broken one). Not inlined: like the
+   library's push, a call per byte. */
+typedef struct naive_parser {
+    uint8_t buf[NURIMC_MAX_FRAME_LENGTH];
+    unsigned length, need;
+} naive_parser;
+
+static NOINLINE int naive_push(naive_parser *p, uint8_t byte, nurimc_message *out) {
+    switch (p->length) {
+    case 0:
+        if (byte == NURIMC_HEADER_0) p->buf[p->length++] = byte;
+        return 0;
+    case 1:
+        if (byte == NURIMC_HEADER_1) {
+            p->buf[p->length++] = byte;
+        } else if (byte != NURIMC_HEADER_0) {
+            p->length = 0;
+        }
+        return 0;
+    case 3:
+        if (byte < 2 || byte > NURIMC_MAX_SIZE) {
+            p->length = 0;
+            return 0;
+        }
+        p->need = (unsigned)byte + NURIMC_FRAME_OVERHEAD;
+        p->buf[p->length++] = byte;
+        return 0;
+    default:
+        p->buf[p->length++] = byte;
+        if (p->length < 4 || p->length < p->need) return 0;
+        p->length = 0;
+        return nurimc_decode(p->buf, p->need, out) == NURIMC_OK;
+    }
+}
+
+static NOINLINE size_t bench_naive_push(const stream *s) {
+    naive_parser parser = {{0}, 0, 0};
+    nurimc_message msg;
+    size_t at, frames = 0;
+    for (at = 0; at < s->length; at++) {
+        if (naive_push(&parser, s->bytes[at], &msg)) {
+            frames++;
+            sink += msg.id;
+        }
+    }
+    return frames;
+}
+
+/* The floor of any byte-at-a-time parser: the same loop calling a function that only keeps the
+   byte. It parses nothing; it shows what the loop and the call per byte cost by themselves. */
+typedef struct floor_state {
+    uint8_t last;
+} floor_state;
+
+static NOINLINE int floor_push(floor_state *f, uint8_t byte, nurimc_message *out) {
+    (void)out;
+    f->last = byte;
+    return 0;
+}
+
+static NOINLINE size_t bench_push_floor(const stream *s) {
+    floor_state state = {0};
+    nurimc_message msg;
+    size_t at, frames = 0;
+    memset(&msg, 0, sizeof msg);
+    for (at = 0; at < s->length; at++) {
+        if (floor_push(&state, s->bytes[at], &msg)) {
+            frames++;
+            sink += msg.id;
+        }
+    }
+    sink += state.last;
+    return s->frames; /* (it takes none) */
+}
+
+/* A memchr parser: the held tail and the new read in one buffer, memchr to the next FF, check
+   FE and the size byte, nurimc_decode the candidate; on failure go on from the next byte. */
+typedef struct memchr_parser {
+    uint8_t buf[NURIMC_MAX_FRAME_LENGTH + 256];
+    size_t length;
+} memchr_parser;
+
+static size_t memchr_feed(memchr_parser *p, const uint8_t *data, size_t length, nurimc_frame_callback callback,
+                          void *context) {
+    size_t pos = 0, count = 0;
+    nurimc_message msg;
+    memcpy(p->buf + p->length, data, length); /* length <= 256 */
+    length += p->length;
+    while (pos < length) {
+        const uint8_t *ff = memchr(p->buf + pos, NURIMC_HEADER_0, length - pos);
+        size_t frame;
+        if (ff == NULL) {
+            pos = length;
+            break;
+        }
+        pos = (size_t)(ff - p->buf);
+        if (length - pos < 4) break; /* hold: it may begin a frame */
+        if (p->buf[pos + 1] != NURIMC_HEADER_1 || p->buf[pos + 3] < 2 || p->buf[pos + 3] > NURIMC_MAX_SIZE) {
+            pos++;
+            continue;
+        }
+        frame = (size_t)p->buf[pos + 3] + NURIMC_FRAME_OVERHEAD;
+        if (length - pos < frame) break;
+        if (nurimc_decode(p->buf + pos, frame, &msg) == NURIMC_OK) {
+            count++;
+            callback(context, &msg);
+            pos += frame;
+        } else {
+            pos++;
+        }
+    }
+    memmove(p->buf, p->buf + pos, length - pos);
+    p->length = length - pos;
+    return count;
+}
+
+static NOINLINE size_t bench_memchr_feed(const stream *s) {
+    static memchr_parser parser;
+    size_t at, frames = 0;
+    parser.length = 0;
+    for (at = 0; at < s->length; at += 256) {
+        size_t n = s->length - at < 256 ? s->length - at : 256;
+        frames += memchr_feed(&parser, s->bytes + at, n, on_frame, NULL);
+    }
+    return frames;
+}
+
+/* ---- the run ------------------------------------------------------------------------------------ */
+
 typedef size_t (*phase_fn)(const stream *);
 
-static double rate(phase_fn fn, const stream *s, size_t *ok) {
-    double best = 0;
-    int round;
-    for (round = 0; round < 5; round++) { /* best of five: the least disturbed run */
-        double start = seconds(), elapsed;
-        *ok = fn(s);
-        elapsed = seconds() - start;
-        if (elapsed > 0 && (double)s->frames / elapsed > best) best = (double)s->frames / elapsed;
-    }
-    return best;
-}
+typedef struct phase {
+    const char *name; /* the JSON key of its rate */
+    phase_fn fn;
+    double best; /* frames/s of the fastest round */
+    size_t ok;   /* frames the last round returned */
+} phase;
+
+#define ROUNDS 21 /* default; run_bench.py runs one round under callgrind */
 
 int main(int argc, char **argv) {
     size_t frames = argc > 1 ? (size_t)strtoul(argv[1], NULL, 10) : 1000000u;
+    int rounds = argc > 2 && atoi(argv[2]) > 0 ? atoi(argv[2]) : ROUNDS;
     stream s = make_stream(frames);
-    size_t ok_decode, ok_encode, ok_feed, ok_push;
-    double decode = rate(bench_decode, &s, &ok_decode);
-    double encode = rate(bench_encode, &s, &ok_encode);
-    double feed = rate(bench_feed, &s, &ok_feed);
-    double push = rate(bench_push, &s, &ok_push);
-    if (ok_decode != frames || ok_feed != frames || ok_push != frames || ok_encode != frames) {
-        fprintf(stderr, "bench: not every frame came back (decode %zu, feed %zu, push %zu of %zu)\n", ok_decode,
-                ok_feed, ok_push, frames);
-        return 1;
+    phase phases[] = {
+        {"decode_frames_per_s", bench_decode, 0, 0},
+        {"encode_frames_per_s", bench_encode, 0, 0},
+        {"parse_feed_frames_per_s", bench_feed, 0, 0},
+        {"baseline_memchr_feed_frames_per_s", bench_memchr_feed, 0, 0},
+        {"parse_push_frames_per_s", bench_push, 0, 0},
+        {"baseline_naive_push_frames_per_s", bench_naive_push, 0, 0},
+        {"push_loop_floor_frames_per_s", bench_push_floor, 0, 0},
+    };
+    size_t count = sizeof phases / sizeof phases[0], i;
+    int round;
+    /* Interleaved rounds, best of `rounds` per phase: a library phase and its baseline see the
+       same machine conditions, and the best round is the least disturbed one. */
+    for (round = 0; round < rounds; round++) {
+        for (i = 0; i < count; i++) {
+            double start = seconds(), elapsed;
+            phases[i].ok = phases[i].fn(&s);
+            elapsed = seconds() - start;
+            if (elapsed > 0 && (double)frames / elapsed > phases[i].best) phases[i].best = (double)frames / elapsed;
+        }
     }
-    printf("{\"frames\": %zu, \"stream_bytes\": %zu, \"decode_frames_per_s\": %.0f, \"encode_frames_per_s\": %.0f, "
-           "\"parse_feed_frames_per_s\": %.0f, \"parse_push_frames_per_s\": %.0f}\n",
-           frames, s.length, decode, encode, feed, push);
+    for (i = 0; i < count; i++) {
+        if (phases[i].ok != frames) {
+            fprintf(stderr, "bench: %s returned %zu of %zu frames\n", phases[i].name, phases[i].ok, frames);
+            return 1;
+        }
+    }
+    printf("{\"frames\": %zu, \"stream_bytes\": %zu, \"rounds\": %d", frames, s.length, rounds);
+    for (i = 0; i < count; i++) printf(", \"%s\": %.0f", phases[i].name, phases[i].best);
+    printf("}\n");
     free(s.bytes);
     free(s.offsets);
     free(s.messages);

@@ -147,6 +147,9 @@ typedef struct nurimc_parser_stats {
 typedef struct nurimc_parser {
     uint8_t buf[NURIMC_MAX_FRAME_LENGTH];
     uint8_t length;
+    uint8_t next;  /**< internal: bytes at indexes below this extend the held candidate unchecked */
+    uint8_t sum;   /**< internal: the held candidate's bytes from its ID on, summed */
+    uint8_t state; /**< internal: 0 = buf holds one undecided candidate (or nothing); 1 = re-scan it */
     nurimc_parser_stats stats;
 } nurimc_parser;
 

@@ -2,6 +2,16 @@
  * The stream parser. The rule (conformance/README.md): where a whole valid frame starts,
  * take it; otherwise drop one byte and look again from the next. Candidates are rejected
  * as soon as their bytes allow (size byte, mode), so the buffer holds at most one frame.
+ *
+ * Two paths, one rule (docs/performance.md):
+ * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), `next` says
+ *   which byte next needs a look. Bytes before it (the ID, the checksum, data bytes) are only
+ *   stored; the others get one check each (FF, FE, the size byte, the mode byte, and at the
+ *   candidate's last byte the checksum and the unpack). O(1) per byte, no re-scan, no copy.
+ *   nurimc_parser_feed judges whole candidates in place in the caller's bytes, no copy either.
+ * - the re-scan (scan()): whenever a held candidate is rejected, or a call has taken a frame
+ *   and kept bytes after it, the general scan judges the held bytes from the start, as the rule
+ *   says; it is rare (noise, corruption) and bounded by the 12-byte buffer.
  */
 #include "nurimc.h"
 
@@ -11,18 +21,44 @@ void nurimc_unpack_valid(const uint8_t *frame, nurimc_message_type type, nurimc_
 
 enum verdict { WAIT, REJECT, VALID };
 
+/* parser->state: buf[0..length) is one undecided candidate, a lone FF or nothing (the fast
+   path may extend it), or it holds bytes the general scan has not judged yet. */
+enum { CANDIDATE = 0, RESCAN = 1 };
+
+enum { ID_OFFSET = 2, SIZE_OFFSET = 3, CHECKSUM_OFFSET = 4, MODE_OFFSET = 5, DATA_OFFSET = 6 };
+
+#if NURIMC_MAX_FRAME_LENGTH != 12
+#error "frame_checksum is unrolled for frames of at most 12 bytes"
+#endif
+
+/* The checksum of a whole frame of `length` (6..12) bytes; unrolled, as a loop over at most
+   six data bytes costs more in set-up (or in vector code) than it saves. */
+static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
+    unsigned sum = (unsigned)b[ID_OFFSET] + b[SIZE_OFFSET] + b[MODE_OFFSET];
+    switch (length) {
+    case 12: sum += b[11]; /* fall through */
+    case 11: sum += b[10]; /* fall through */
+    case 10: sum += b[9];  /* fall through */
+    case 9: sum += b[8];   /* fall through */
+    case 8: sum += b[7];   /* fall through */
+    case 7: sum += b[6];   /* fall through */
+    default: break;
+    }
+    return (uint8_t)~sum;
+}
+
 /* Judge the candidate at b[0] (b[0..1] = FF FE, `avail` bytes present). Counts rejections. */
 static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t avail, nurimc_message *out) {
     uint8_t size;
     uint8_t plus_one;
     if (avail < 4) return WAIT;
-    size = b[3];
+    size = b[SIZE_OFFSET];
     if (size < 2 || size > NURIMC_MAX_SIZE) {
         stats->bad_size++;
         return REJECT;
     }
     if (avail < 6) return WAIT;
-    plus_one = nurimc_type_by_mode_plus_one[b[5]];
+    plus_one = nurimc_type_by_mode_plus_one[b[MODE_OFFSET]];
     if (plus_one == 0) {
         stats->unknown_mode++;
         return REJECT;
@@ -32,7 +68,7 @@ static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t a
         return REJECT;
     }
     if (avail < (size_t)size + NURIMC_FRAME_OVERHEAD) return WAIT;
-    if (b[4] != nurimc_checksum(b, (size_t)size + NURIMC_FRAME_OVERHEAD)) {
+    if (b[CHECKSUM_OFFSET] != frame_checksum(b, (unsigned)size + NURIMC_FRAME_OVERHEAD)) {
         stats->bad_checksum++;
         return REJECT;
     }
@@ -76,6 +112,22 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
     }
     if (pos > 0) memmove(buf, buf + pos, n - pos);
     p->length = (uint8_t)(n - pos);
+    /* Without a frame taken, what is left is one undecided candidate (or FF, or nothing): the
+       fast path takes over, told which byte next needs a look. After a frame, the bytes behind
+       it are unjudged: the next call scans again. */
+    if (found && p->length > 1) { /* (a single byte left is a lone FF: nothing to judge) */
+        p->state = RESCAN;
+        p->next = 0;
+    } else {
+        unsigned held = p->length, sum = 0, i;
+        for (i = ID_OFFSET; i < held; i++) sum += buf[i];
+        p->state = CANDIDATE;
+        p->sum = (uint8_t)sum;
+        p->next = (uint8_t)(held < 2   ? 0u
+                            : held < 4 ? SIZE_OFFSET
+                            : held < 6 ? MODE_OFFSET
+                                       : buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD - 1u);
+    }
     return found;
 }
 
@@ -83,15 +135,94 @@ void nurimc_parser_init(nurimc_parser *parser) {
     if (parser != NULL) memset(parser, 0, sizeof *parser);
 }
 
-int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
-    if (parser == NULL || out == NULL) return 0;
-    if (parser->length >= sizeof parser->buf) { /* cannot happen: a full frame is always decided */
-        parser->stats.dropped_bytes++;
-        memmove(parser->buf, parser->buf + 1, sizeof parser->buf - 1u);
-        parser->length--;
+/* Out of line, so the per-byte path of push needs no saved registers and tail-calls these. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
+/* Add `byte` to the held bytes and judge them all again (after a rejection or a frame). */
+static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message *out) {
+    unsigned n = p->length;
+    if (n >= sizeof p->buf) { /* cannot happen: a full frame is always decided */
+        p->stats.dropped_bytes++;
+        memmove(p->buf, p->buf + 1, sizeof p->buf - 1u);
+        n--;
     }
-    parser->buf[parser->length++] = byte;
-    return scan(parser, 0, out);
+    p->buf[n] = byte;
+    p->length = (uint8_t)(n + 1);
+    return scan(p, 0, out);
+}
+
+/* The candidate's last byte (its checks so far all passed; p->sum holds the sum of its bytes
+   from the ID on, checksum byte included): take the frame or re-scan. */
+static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_message *out) {
+    p->buf[n] = byte;
+    p->length = (uint8_t)(n + 1);
+    if (((p->sum + byte) & 0xFFu) != 0xFFu) return scan(p, 0, out); /* checksum = ~(sum of the rest) */
+    p->length = 0;
+    p->next = 0;
+    p->stats.frames++;
+    nurimc_unpack_valid(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
+    return 1;
+}
+
+int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+    nurimc_parser *p = parser;
+    unsigned n;
+    if (p == NULL || out == NULL) return 0;
+    n = p->length;
+    if (n < p->next) { /* the ID, checksum or a data byte of a candidate: nothing to check yet */
+        p->buf[n] = byte;
+        p->length = (uint8_t)(n + 1);
+        p->sum = (uint8_t)(p->sum + byte);
+        return 0;
+    }
+    if (n == 0) { /* (never so in state RESCAN, which holds at least two bytes) */
+        if (byte == NURIMC_HEADER_0) {
+            p->buf[0] = byte;
+            p->length = 1;
+        } else {
+            p->stats.dropped_bytes++;
+        }
+        return 0;
+    }
+    if (n == 1) { /* buf holds FF (in state RESCAN too) */
+        if (byte == NURIMC_HEADER_1) {
+            p->buf[1] = byte;
+            p->length = 2;
+            p->next = SIZE_OFFSET; /* the ID byte needs no look */
+            p->sum = 0;
+        } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
+            p->stats.dropped_bytes++;
+        } else {
+            p->stats.dropped_bytes += 2;
+            p->length = 0;
+        }
+        return 0;
+    }
+    if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
+    if (n == SIZE_OFFSET) {
+        if (byte < 2 || byte > NURIMC_MAX_SIZE) return push_and_scan(p, byte, out); /* the scan counts it */
+        p->buf[SIZE_OFFSET] = byte;
+        p->length = 4;
+        p->sum = (uint8_t)(p->sum + byte);
+        p->next = MODE_OFFSET; /* the checksum byte needs no look */
+        return 0;
+    }
+    if (n == MODE_OFFSET) {
+        uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
+        unsigned size = p->buf[SIZE_OFFSET];
+        if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) return push_and_scan(p, byte, out);
+        if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
+        p->buf[MODE_OFFSET] = byte;
+        p->length = DATA_OFFSET;
+        p->sum = (uint8_t)(p->sum + byte);
+        p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
+        return 0;
+    }
+    return take(p, n, byte, out);
 }
 
 size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
@@ -101,17 +232,26 @@ size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t len
     if (parser == NULL || (data == NULL && length > 0)) return 0;
     while (i < length) {
         if (parser->length == 0) { /* fast path: judge candidates in place, no copy */
+            const uint8_t *b = data + i;
             size_t avail = length - i;
-            if (data[i] != NURIMC_HEADER_0 || (avail >= 2 && data[i + 1] != NURIMC_HEADER_1)) {
-                parser->stats.dropped_bytes++;
-                i++;
+            if (b[0] != NURIMC_HEADER_0) { /* noise: skip to the next FF */
+                const uint8_t *ff = memchr(b, NURIMC_HEADER_0, avail);
+                size_t skip = ff != NULL ? (size_t)(ff - b) : avail;
+                parser->stats.dropped_bytes += (uint32_t)skip;
+                i += skip;
                 continue;
             }
             if (avail >= 2) {
-                enum verdict v = judge(&parser->stats, data + i, avail, &msg);
+                enum verdict v;
+                if (b[1] != NURIMC_HEADER_1) {
+                    parser->stats.dropped_bytes++;
+                    i++;
+                    continue;
+                }
+                v = judge(&parser->stats, b, avail, &msg);
                 if (v == VALID) {
                     parser->stats.frames++;
-                    i += (size_t)data[i + 3] + NURIMC_FRAME_OVERHEAD;
+                    i += (size_t)b[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD;
                     count++;
                     if (callback != NULL) callback(context, &msg);
                     continue;
@@ -122,6 +262,7 @@ size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t len
                     continue;
                 }
             }
+            /* an undecided candidate at the end of the chunk: hold it, byte by byte */
         }
         if (nurimc_parser_push(parser, data[i++], &msg)) {
             count++;
@@ -140,6 +281,8 @@ void nurimc_parser_clear(nurimc_parser *parser) {
     if (parser == NULL) return;
     parser->stats.dropped_bytes += parser->length;
     parser->length = 0;
+    parser->next = 0;
+    parser->state = CANDIDATE;
 }
 
 size_t nurimc_parser_pending(const nurimc_parser *parser) {
