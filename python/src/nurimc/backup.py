@@ -72,7 +72,8 @@ def _motor(entry: object, where: str) -> dict[str, Any]:
             raise BackupError(f"{where}: baudrate {rate} bps is not one of {', '.join(map(str, BAUD_RATES))}")
         motor["baudrate"] = rate
     if "product" in entry:
-        if entry["product"] not in PRODUCTS:
+        # the type first: a list or an object is unhashable, and `in` a dict would raise TypeError
+        if not isinstance(entry["product"], str) or entry["product"] not in PRODUCTS:
             raise BackupError(f"{where}: product {show(entry['product'])} is not one of {', '.join(PRODUCTS)}")
         motor["product"] = entry["product"]
     settings = entry.get("settings")

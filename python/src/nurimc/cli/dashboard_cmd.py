@@ -24,13 +24,11 @@ def dashboard(
 
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 dashboard   (then open http://127.0.0.1:8485)
     """
-    from rich.markup import escape
-
     from ..extras import missing_extra
 
     hint = missing_extra("dashboard")
     if hint:
-        fail(escape(hint), EXIT_USAGE)
+        fail(hint, EXIT_USAGE)  # printed as plain text (say_error): no markup escaping
     import uvicorn
 
     from ..dashboard import DashboardConfig, create_app
