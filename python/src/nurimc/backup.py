@@ -62,6 +62,9 @@ def check(document: object, source: str = "backup") -> dict[str, Any]:
 def _motor(entry: object, where: str) -> dict[str, Any]:
     if not isinstance(entry, dict):
         raise BackupError(f"{where}: {_kind(entry)}, not a motor (an object with {', '.join(MOTOR_KEYS)})")
+    for key in ("id", "baudrate"):  # we write numbers; text ("1") is not a file we wrote
+        if isinstance(entry.get(key), str):
+            raise BackupError(f"{where}: {key} {show(entry[key])} is text; give a number")
     device_id = integer(entry.get("id"), f"{where}: id", 0, 254)
     where = f"{where} (ID {device_id})"
     _only(entry, MOTOR_KEYS, where)
@@ -146,8 +149,12 @@ def check_writable(path: str | Path) -> Path:
         raise BackupError(f"{path}: the folder {folder} does not exist")
     if target.is_dir():
         raise BackupError(f"{path}: is a folder; give a file name")
-    if not os.access(folder, os.W_OK):
-        raise BackupError(f"{path}: the folder {folder} is not writable")
+    try:  # the truth, not os.access (root passes it; /proc and read-only mounts still refuse)
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=".tmp")
+    except OSError as error:
+        raise BackupError(f"{path}: cannot write in the folder {folder} ({error.strerror})") from None
+    os.close(fd)
+    os.unlink(probe)
     return target
 
 
