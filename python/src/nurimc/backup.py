@@ -35,6 +35,15 @@ class BackupError(InputError):
 def check(document: object, source: str = "backup") -> dict[str, Any]:
     """The document as a clean backup (names canonical, numbers as the wire holds them), or
     BackupError naming `source`, the motor and the field."""
+    try:
+        return _check(document, source)
+    except BackupError:
+        raise
+    except InputError as error:  # a value refused by nurimc.inputs: its message already names the field
+        raise BackupError(str(error)) from None
+
+
+def _check(document: object, source: str) -> dict[str, Any]:
     if not isinstance(document, dict):
         raise BackupError(f"{source}: not a nurimc backup (the top level is {_kind(document)}, not an object)")
     if document.get("format") != FORMAT:
@@ -62,14 +71,15 @@ def check(document: object, source: str = "backup") -> dict[str, Any]:
 def _motor(entry: object, where: str) -> dict[str, Any]:
     if not isinstance(entry, dict):
         raise BackupError(f"{where}: {_kind(entry)}, not a motor (an object with {', '.join(MOTOR_KEYS)})")
-    for key in ("id", "baudrate"):  # we write numbers; text ("1") is not a file we wrote
-        if isinstance(entry.get(key), str):
-            raise BackupError(f"{where}: {key} {show(entry[key])} is text; give a number")
+    if isinstance(entry.get("id"), str):  # we write numbers; text ("1") is not a file we wrote
+        raise BackupError(f"{where}: id {show(entry['id'])} is text; give a number")
     device_id = integer(entry.get("id"), f"{where}: id", 0, 254)
     where = f"{where} (ID {device_id})"
     _only(entry, MOTOR_KEYS, where)
     motor: dict[str, Any] = {"id": device_id}
     if "baudrate" in entry:
+        if isinstance(entry["baudrate"], str):
+            raise BackupError(f"{where}: baudrate {show(entry['baudrate'])} is text; give a number")
         rate = integer(entry["baudrate"], f"{where}: baudrate", min(BAUD_RATES), max(BAUD_RATES), "bps")
         if rate not in BAUD_RATES:
             raise BackupError(f"{where}: baudrate {rate} bps is not one of {', '.join(map(str, BAUD_RATES))}")

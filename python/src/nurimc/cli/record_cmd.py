@@ -49,7 +49,12 @@ def record(
     except NameError_ as error:
         fail(str(error))
     recorder = McapRecorder(mcap_path)
-    bus = open_traced_bus(o, recorder)
+    try:
+        bus = open_traced_bus(o, recorder)
+    except BaseException:  # the port failed: the recording still ends properly (file closed)
+        if recorder is not None:
+            recorder.close()
+        raise
     stop = threading.Event()
     try:
         motor_list = motor_ids(o, ids, bus)

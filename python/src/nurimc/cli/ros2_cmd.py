@@ -37,7 +37,7 @@ def open_traced_bus(o: Options, recorder: Any | None) -> Bus:
     """Like common.open_bus, with an MCAP recorder (and -v's printer) seeing every byte."""
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
-        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1) or set NURIMC_PORT")
+        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     tracers = [t for t in (recorder, FramePrinter() if o.verbose else None) if t is not None]
     tracer = tracers[0] if len(tracers) == 1 else _Tee(tracers) if tracers else None
     bus = Bus.open(port, baudrate=o.baud, tracer=tracer)
@@ -152,7 +152,12 @@ def ros2(
         from ..recording.mcap_file import McapRecorder
 
         recorder = McapRecorder(mcap_path)
-    bus = open_traced_bus(o, recorder)
+    try:
+        bus = open_traced_bus(o, recorder)
+    except BaseException:  # the port failed: the recording still ends properly (file closed)
+        if recorder is not None:
+            recorder.close()
+        raise
     node = None
     try:
         motor_list = motor_ids(o, ids, bus)
