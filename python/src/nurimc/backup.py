@@ -35,6 +35,15 @@ class BackupError(InputError):
 def check(document: object, source: str = "backup") -> dict[str, Any]:
     """The document as a clean backup (names canonical, numbers as the wire holds them), or
     BackupError naming `source`, the motor and the field."""
+    try:
+        return _check(document, source)
+    except BackupError:
+        raise
+    except InputError as error:  # a value refused by nurimc.inputs: its message already names the field
+        raise BackupError(str(error)) from None
+
+
+def _check(document: object, source: str) -> dict[str, Any]:
     if not isinstance(document, dict):
         raise BackupError(f"{source}: not a nurimc backup (the top level is {_kind(document)}, not an object)")
     if document.get("format") != FORMAT:
@@ -62,17 +71,22 @@ def check(document: object, source: str = "backup") -> dict[str, Any]:
 def _motor(entry: object, where: str) -> dict[str, Any]:
     if not isinstance(entry, dict):
         raise BackupError(f"{where}: {_kind(entry)}, not a motor (an object with {', '.join(MOTOR_KEYS)})")
+    if isinstance(entry.get("id"), str):  # we write numbers; text ("1") is not a file we wrote
+        raise BackupError(f"{where}: id {show(entry['id'])} is text; give a number")
     device_id = integer(entry.get("id"), f"{where}: id", 0, 254)
     where = f"{where} (ID {device_id})"
     _only(entry, MOTOR_KEYS, where)
     motor: dict[str, Any] = {"id": device_id}
     if "baudrate" in entry:
+        if isinstance(entry["baudrate"], str):
+            raise BackupError(f"{where}: baudrate {show(entry['baudrate'])} is text; give a number")
         rate = integer(entry["baudrate"], f"{where}: baudrate", min(BAUD_RATES), max(BAUD_RATES), "bps")
         if rate not in BAUD_RATES:
             raise BackupError(f"{where}: baudrate {rate} bps is not one of {', '.join(map(str, BAUD_RATES))}")
         motor["baudrate"] = rate
     if "product" in entry:
-        if entry["product"] not in PRODUCTS:
+        # the type first: a list or an object is unhashable, and `in` a dict would raise TypeError
+        if not isinstance(entry["product"], str) or entry["product"] not in PRODUCTS:
             raise BackupError(f"{where}: product {show(entry['product'])} is not one of {', '.join(PRODUCTS)}")
         motor["product"] = entry["product"]
     settings = entry.get("settings")
@@ -145,8 +159,12 @@ def check_writable(path: str | Path) -> Path:
         raise BackupError(f"{path}: the folder {folder} does not exist")
     if target.is_dir():
         raise BackupError(f"{path}: is a folder; give a file name")
-    if not os.access(folder, os.W_OK):
-        raise BackupError(f"{path}: the folder {folder} is not writable")
+    try:  # the truth, not os.access (root passes it; /proc and read-only mounts still refuse)
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=".tmp")
+    except OSError as error:
+        raise BackupError(f"{path}: cannot write in the folder {folder} ({error.strerror})") from None
+    os.close(fd)
+    os.unlink(probe)
     return target
 
 

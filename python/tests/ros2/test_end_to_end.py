@@ -209,7 +209,7 @@ def test_two_bridges_in_two_processes_one_subscriber(peer: Peer) -> None:
     [
         (["ros2", "--ids", "1", "--namespace", "/2arm"], "namespace '/2arm'"),
         (["ros2", "--ids", "1", "--joint-names", "a,b"], "--joint-names gives 2 names for 1 motors"),
-        (["ros2", "--ids", "1", "--rate", "-1"], "--rate -1.0"),
+        (["ros2", "--ids", "1", "--rate", "-1"], "--rate: '-1' is out of range"),
         (["ros2", "--ids", "9"], "no answer from ID 9"),
     ],
 )

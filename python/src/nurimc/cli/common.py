@@ -185,7 +185,7 @@ class FramePrinter:
 def open_bus(o: Options) -> Bus:
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
-        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1) or set NURIMC_PORT")
+        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     rs485 = RS485(rts_level_for_tx=not o.rs485_invert) if o.rs485 else None
     bus = Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None, rs485=rs485)
     warning = getattr(bus.transport, "warning", None)

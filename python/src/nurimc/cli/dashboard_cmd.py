@@ -28,7 +28,7 @@ def dashboard(
 
     hint = missing_extra("dashboard")
     if hint:
-        fail(hint, EXIT_USAGE)  # plain text: say_error prints no markup
+        fail(hint, EXIT_USAGE)  # printed as plain text (say_error): no markup escaping
     import uvicorn
 
     from ..dashboard import DashboardConfig, create_app

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from pathlib import Path
@@ -11,6 +10,7 @@ import typer
 
 from ..errors import NurimcError
 from .common import fail, options, out
+from .ros2_cmd import RATE, SECONDS
 
 
 def record(
@@ -19,8 +19,15 @@ def record(
     ids: str = typer.Option(None, "--ids", help="Controller IDs to read: 1,2 (default: those found)."),
     namespace: str = typer.Option("/", "--namespace", "-n", help="Namespace of the joint_states topic."),
     joint_names: str = typer.Option(None, "--joint-names", help="One name per ID (default motor_<ID>)."),
-    rate: float = typer.Option(50.0, "--rate", help="Readings per second; 0 = as fast as the bus allows."),
-    seconds: float = typer.Option(None, "--seconds", help="Stop after this many seconds (default: until Ctrl-C)."),
+    rate: float = typer.Option(
+        50.0, "--rate", help=f"Readings per second ({RATE.allowed}); 0 = as fast as the bus allows.", parser=RATE
+    ),
+    seconds: float = typer.Option(
+        None,
+        "--seconds",
+        help=f"Stop after this many seconds ({SECONDS.allowed}; default: until Ctrl-C).",
+        parser=SECONDS,
+    ),
 ) -> None:
     """Record joint_states (sensor_msgs/JointState) and every raw frame with its direction and time.
 
@@ -37,16 +44,17 @@ def record(
     from ..ros2.names import joint_names as make_joint_names
     from ..ros2.names import namespace as check_namespace
 
-    if rate < 0 or not math.isfinite(rate):
-        fail(f"--rate {rate}: give readings per second (0 = as fast as the bus allows)")
-    if seconds is not None and (seconds <= 0 or not math.isfinite(seconds)):
-        fail(f"--seconds {seconds}: give a duration > 0")
     try:
         state_topic = topic(check_namespace(namespace), "joint_states")
     except NameError_ as error:
         fail(str(error))
     recorder = McapRecorder(mcap_path)
-    bus = open_traced_bus(o, recorder)
+    try:
+        bus = open_traced_bus(o, recorder)
+    except BaseException:  # the port failed: the recording still ends properly (file closed)
+        if recorder is not None:
+            recorder.close()
+        raise
     stop = threading.Event()
     try:
         motor_list = motor_ids(o, ids, bus)

@@ -12,7 +12,15 @@ from typing import Any
 import typer
 
 from ..client.sync import Bus
-from .common import EXIT_DEVICE, FramePrinter, Options, err, fail, options, out, parse_ids
+from .common import EXIT_DEVICE, FramePrinter, Number, Options, err, fail, options, out, parse_ids
+from .motion import RAMP
+
+# Every number is checked when the options are read, before the extra, the port or DDS is touched.
+RATE = Number("--rate", 0, 10_000, "readings/s")
+SECONDS = Number("--seconds", 0.01, 1_000_000, "s")
+COMMAND_TIMEOUT = Number("--command-timeout", 0, 3600, "s")
+#: rad/s between the wire's 0.1 and 6553.3 RPM (rounded inwards to the digits shown)
+MOVE_VELOCITY = Number("--move-velocity", 0.0105, 686.2, "rad/s")
 
 EXTRA_HINT = "this command needs the ros2 extra: pip install 'nurimc[ros2]' (cyclonedds, mcap)"
 
@@ -29,7 +37,7 @@ def open_traced_bus(o: Options, recorder: Any | None) -> Bus:
     """Like common.open_bus, with an MCAP recorder (and -v's printer) seeing every byte."""
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
-        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1) or set NURIMC_PORT")
+        fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     tracers = [t for t in (recorder, FramePrinter() if o.verbose else None) if t is not None]
     tracer = tracers[0] if len(tracers) == 1 else _Tee(tracers) if tracers else None
     bus = Bus.open(port, baudrate=o.baud, tracer=tracer)
@@ -90,21 +98,36 @@ def ros2(
     ids: str = typer.Option(None, "--ids", help="Controller IDs in joint order: 1,2 (default: those found)."),
     namespace: str = typer.Option("/", "--namespace", "-n", help="ROS 2 namespace of the topics, e.g. /left_arm."),
     joint_names: str = typer.Option(None, "--joint-names", help="One name per ID: shoulder,elbow (motor_<ID>)."),
-    rate: float = typer.Option(50.0, "--rate", help="joint_states per second; 0 = as fast as the bus allows."),
+    rate: float = typer.Option(
+        50.0, "--rate", help=f"joint_states per second ({RATE.allowed}); 0 = as fast as the bus allows.", parser=RATE
+    ),
     command_timeout: float = typer.Option(
-        0.5, "--command-timeout", help="Seconds without velocity_commands before a turning motor holds; 0 = off."
+        0.5,
+        "--command-timeout",
+        help=f"Seconds without velocity_commands before a turning motor holds ({COMMAND_TIMEOUT.allowed}); 0 = off.",
+        parser=COMMAND_TIMEOUT,
     ),
     move_velocity: float = typer.Option(
-        round(2 * math.pi, 4), "--move-velocity", help="Speed of moves to position_commands, rad/s (6.28 = 60 RPM)."
+        round(2 * math.pi, 4),
+        "--move-velocity",
+        help=f"Speed of moves to position_commands ({MOVE_VELOCITY.allowed}; 6.28 = 60 RPM).",
+        parser=MOVE_VELOCITY,
     ),
-    ramp: float = typer.Option(0.1, "--ramp", help="Seconds to reach a commanded velocity."),
+    ramp: float = typer.Option(
+        0.1, "--ramp", help=f"Seconds to reach a commanded velocity ({RAMP.allowed}).", parser=RAMP
+    ),
     broadcast_read: bool = typer.Option(
         False,
         "--broadcast-read",
         help="Read all motors with one broadcast request (writes staggered response times to the controllers).",
     ),
     mcap_path: Path = typer.Option(None, "--mcap", help="Also record joint states and every frame to this file."),
-    seconds: float = typer.Option(None, "--seconds", help="Stop after this many seconds (default: until Ctrl-C)."),
+    seconds: float = typer.Option(
+        None,
+        "--seconds",
+        help=f"Stop after this many seconds ({SECONDS.allowed}; default: until Ctrl-C).",
+        parser=SECONDS,
+    ),
 ) -> None:
     """Publish joint_states and /diagnostics; obey position_commands, velocity_commands and estop (ROS 2 over DDS).
 
@@ -124,14 +147,17 @@ def ros2(
         domain = domain_id()
     except (NameError_, ValueError) as error:
         fail(str(error))
-    if rate < 0 or not math.isfinite(rate):
-        fail(f"--rate {rate}: give readings per second (0 = as fast as the bus allows)")
     recorder = None
     if mcap_path is not None:
         from ..recording.mcap_file import McapRecorder
 
         recorder = McapRecorder(mcap_path)
-    bus = open_traced_bus(o, recorder)
+    try:
+        bus = open_traced_bus(o, recorder)
+    except BaseException:  # the port failed: the recording still ends properly (file closed)
+        if recorder is not None:
+            recorder.close()
+        raise
     node = None
     try:
         motor_list = motor_ids(o, ids, bus)
