@@ -89,6 +89,11 @@ def check_wheel_contents(wheel: Path) -> str:
     if not any(n.endswith("licenses/LICENSE") for n in licences):
         raise RuntimeError(f"the wheel's licence files are incomplete: {licences}")
     vendored = sorted(n for n in names if "/vendor/" in n and n.endswith("/LICENSE"))
+    # every third-party folder the page loads from carries its licence (uPlot today, any added later)
+    folders = {n.rsplit("/", 1)[0] for n in names if "/static/vendor/" in n}
+    unlicensed = sorted(f for f in folders if f"{f}/LICENSE" not in names)
+    if unlicensed or not folders:
+        raise RuntimeError(f"third-party folders without a LICENSE: {unlicensed or 'no vendor folder at all'}")
     return f"{len(names)} files; licences: {', '.join(licences + vendored)}"
 
 
