@@ -44,8 +44,8 @@ int nurimc_baud_index(uint32_t baud) {
 }
 
 static const char *const status_names[] = {
-    "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size", "unknown_message",
-    "range", "buffer", "argument",  "io",       "timeout",  "baud", "not_finite", "fraction",
+    "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size",       "unknown_message",
+    "range", "buffer", "argument",  "io",       "timeout",  "baud",         "not_finite", "fraction",
 };
 
 static const char *const status_texts[] = {

@@ -97,8 +97,8 @@ static long limit_steps(const nurimc_field_spec *f, double limit) {
 }
 
 /* A value in [low, high] of `f`'s steps, either way; the magnitude and the direction. */
-static nurimc_status motion_to_wire(const nurimc_field_spec *f, double value, double low, double high,
-                                    uint16_t *wire, uint8_t *direction) {
+static nurimc_status motion_to_wire(const nurimc_field_spec *f, double value, double low, double high, uint16_t *wire,
+                                    uint8_t *direction) {
     long steps = 0;
     nurimc_status status;
     if (f == NULL || wire == NULL) return NURIMC_E_ARGUMENT;
