@@ -2,7 +2,8 @@
  * nurimc — MC-RS485 V1.0.1 protocol core for C99 and C++.
  *
  * Sans-I/O: no dynamic allocation, no global state, no I/O and no dependence on host
- * endianness. Field values are raw wire integers (see docs/protocol.md for units).
+ * endianness. Field values are raw wire integers (see docs/protocol.md for units;
+ * <nurimc_units.h> converts physical values).
  * The message table is generated from spec/protocol.json (nurimc_messages.h).
  * The POSIX serial host layer is in <nurimc_posix.h>.
  */
