@@ -8,7 +8,7 @@
 #include "nurimc.h"
 #include "nurimc_host.h"
 #include "nurimc_settings.h"
-#include "units.h"
+#include "nurimc_units.h"
 
 typedef struct output {
     char *text;
@@ -285,34 +285,15 @@ static int is_utf8(const unsigned char *s, size_t n) {
     return 1;
 }
 
-/* ---- units: physical values <-> wire integers (conformance/README.md, "units") ---- */
+/* ---- units: physical values <-> wire integers (conformance/README.md, "units") ----
+ * The rule is the library's (nurimc_units.h); this maps the names and the answers. */
+
+typedef enum quantity_kind { QUANTITY_DEGREES, QUANTITY_RPM, QUANTITY_SECONDS, QUANTITY_SETTING } quantity_kind;
 
 typedef struct quantity {
-    unsigned long num, den; /* one step = num / den of the unit */
-    long min, max;          /* wire range of a value given to to_wire */
-    int is_signed;          /* a direction flag and a magnitude (degrees, rpm) */
-    const nurimc_setting *setting;
+    quantity_kind kind;
+    const nurimc_setting *setting; /* QUANTITY_SETTING */
 } quantity;
-
-static const nurimc_field_spec *field_of(nurimc_message_type type, const char *name) {
-    const nurimc_message_spec *spec = nurimc_spec(type);
-    unsigned i;
-    for (i = 0; spec != NULL && i < spec->field_count; i++) {
-        if (strcmp(spec->fields[i].name, name) == 0) return &spec->fields[i];
-    }
-    fprintf(stderr, "conformance: no field %s\n", name);
-    exit(1);
-}
-
-/* A motion quantity: its field's step and the limits of spec/host.json, rounded to steps. */
-static void motion(quantity *q, nurimc_message_type type, const char *field, double low, double high, int is_signed) {
-    const nurimc_field_spec *f = field_of(type, field);
-    q->num = f->scale_num;
-    q->den = f->scale_den;
-    q->is_signed = is_signed;
-    q->setting = NULL;
-    if (units_to_wire(low, q->num, q->den, &q->min) != 0 || units_to_wire(high, q->num, q->den, &q->max) != 0) exit(1);
-}
 
 /* The request's quantity, by its exact name; -1 if there is none such. */
 static int find_quantity(const json_doc *doc, quantity *q) {
@@ -321,20 +302,17 @@ static int find_quantity(const json_doc *doc, quantity *q) {
     if (node < 0 || doc->nodes[node].type != JSON_STRING) return -1;
     n = &doc->nodes[node];
     if (strlen(n->text) != n->length) return -1; /* a NUL inside names nothing */
+    q->setting = NULL;
     if (strcmp(n->text, "degrees") == 0) {
-        motion(q, NURIMC_MSG_POSITION_SPEED, "position", 0.0, NURIMC_LIMIT_POSITION_DEG, 1);
+        q->kind = QUANTITY_DEGREES;
     } else if (strcmp(n->text, "rpm") == 0) {
-        motion(q, NURIMC_MSG_ACCEL_SPEED, "speed", NURIMC_LIMIT_SPEED_RPM_MIN, NURIMC_LIMIT_SPEED_RPM_MAX, 1);
+        q->kind = QUANTITY_RPM;
     } else if (strcmp(n->text, "seconds") == 0) {
-        motion(q, NURIMC_MSG_ACCEL_SPEED, "arrival_time", NURIMC_LIMIT_ARRIVAL_S_MIN, NURIMC_LIMIT_ARRIVAL_S_MAX, 0);
+        q->kind = QUANTITY_SECONDS;
     } else {
+        q->kind = QUANTITY_SETTING;
         q->setting = nurimc_setting_by_name(n->text);
         if (q->setting == NULL) return -1;
-        q->num = q->setting->scale_num;
-        q->den = q->setting->scale_den;
-        q->min = q->setting->min;
-        q->max = q->setting->max;
-        q->is_signed = 0;
     }
     return 0;
 }
@@ -342,51 +320,40 @@ static int find_quantity(const json_doc *doc, quantity *q) {
 static void op_to_wire(output *out, const json_doc *doc) {
     quantity q;
     int node = json_member(doc, 0, "value");
-    long steps = 0;
-    double value, magnitude;
+    uint16_t wire = 0;
+    uint8_t direction = 0;
+    nurimc_status status;
     char text[64];
-    unsigned i;
     if (find_quantity(doc, &q) != 0) {
         put_error(out, "unknown_quantity", NULL);
         return;
     }
     if (node >= 0 && doc->nodes[node].type == JSON_STRING && q.setting != NULL &&
         q.setting->input == NURIMC_INPUT_CHOICE) {
-        for (i = 0; i < sizeof q.setting->value_names / sizeof q.setting->value_names[0]; i++) {
-            if (q.setting->value_names[i] != NULL && json_string_is(doc, node, q.setting->value_names[i])) {
-                snprintf(text, sizeof text, "{\"wire\":%u}", i);
-                put(out, text);
-                return;
-            }
-        }
-        put_error(out, "range", NULL);
-        return;
-    }
-    if (node < 0 || (doc->nodes[node].type != JSON_INT && doc->nodes[node].type != JSON_FLOAT)) {
+        /* a NUL inside a name matches no name */
+        status = strlen(doc->nodes[node].text) != doc->nodes[node].length
+                     ? NURIMC_E_RANGE
+                     : nurimc_setting_choice_to_wire(q.setting, doc->nodes[node].text, &wire);
+    } else if (node < 0 || (doc->nodes[node].type != JSON_INT && doc->nodes[node].type != JSON_FLOAT)) {
         put_error(out, "type", NULL);
         return;
-    }
-    value = doc->nodes[node].number;
-    magnitude = value < 0 ? -value : value;
-    if (q.setting != NULL && q.setting->input != NURIMC_INPUT_QUANTIZE) {
-        /* a whole number (2.0 and 1e1 are), in the field's unit: these settings have no scale */
-        if (!isfinite(value) || magnitude > 1e15 || (double)(long long)value != value) {
-            put_error(out, "range", NULL);
-            return;
-        }
-        steps = (long)value;
-    } else if (units_to_wire(q.is_signed ? magnitude : value, q.num, q.den, &steps) != 0) {
-        put_error(out, "range", NULL);
-        return;
-    }
-    if (steps < q.min || steps > q.max) {
-        put_error(out, "range", NULL);
-        return;
-    }
-    if (q.is_signed) {
-        snprintf(text, sizeof text, "{\"direction\":%d,\"wire\":%ld}", value < 0 ? 1 : 0, steps);
+    } else if (q.kind == QUANTITY_DEGREES) {
+        status = nurimc_degrees_to_wire(doc->nodes[node].number, &wire, &direction);
+    } else if (q.kind == QUANTITY_RPM) {
+        status = nurimc_rpm_to_wire(doc->nodes[node].number, &wire, &direction);
+    } else if (q.kind == QUANTITY_SECONDS) {
+        status = nurimc_seconds_to_wire(doc->nodes[node].number, &wire);
     } else {
-        snprintf(text, sizeof text, "{\"wire\":%ld}", steps);
+        status = nurimc_setting_to_wire(q.setting, doc->nodes[node].number, &wire);
+    }
+    if (status != NURIMC_OK) { /* out of range, not finite, a fraction: all `range` here */
+        put_error(out, "range", NULL);
+        return;
+    }
+    if (q.kind == QUANTITY_DEGREES || q.kind == QUANTITY_RPM) {
+        snprintf(text, sizeof text, "{\"direction\":%u,\"wire\":%u}", (unsigned)direction, (unsigned)wire);
+    } else {
+        snprintf(text, sizeof text, "{\"wire\":%u}", (unsigned)wire);
     }
     put(out, text);
 }
@@ -399,27 +366,52 @@ static const char *integer_in(const json_doc *doc, int node, long max, long *val
     return NULL;
 }
 
+/* The scale of a motion quantity: its field in the generated message table. */
+static const nurimc_field_spec *motion_field(quantity_kind kind) {
+    nurimc_message_type type = kind == QUANTITY_DEGREES ? NURIMC_MSG_POSITION_SPEED : NURIMC_MSG_ACCEL_SPEED;
+    const char *name = kind == QUANTITY_DEGREES ? "position" : kind == QUANTITY_RPM ? "speed" : "arrival_time";
+    int index = nurimc_field_index(type, name);
+    if (index < 0) {
+        fprintf(stderr, "conformance: no field %s\n", name);
+        exit(1);
+    }
+    return &nurimc_spec(type)->fields[index];
+}
+
 static void op_from_wire(output *out, const json_doc *doc) {
     quantity q;
     long wire = 0, direction = 0;
-    const char *error;
-    char text[64];
+    uint32_t num, den;
+    const char *error, *name = NULL;
+    char text[48];
     if (find_quantity(doc, &q) != 0) {
         put_error(out, "unknown_quantity", NULL);
         return;
     }
     error = integer_in(doc, json_member(doc, 0, "wire"), 65535, &wire);
-    if (error == NULL && q.is_signed) error = integer_in(doc, json_member(doc, 0, "direction"), 1, &direction);
+    if (error == NULL && (q.kind == QUANTITY_DEGREES || q.kind == QUANTITY_RPM)) {
+        error = integer_in(doc, json_member(doc, 0, "direction"), 1, &direction);
+    }
     if (error != NULL) {
         put_error(out, error, NULL);
         return;
     }
-    put(out, "{\"value\":");
-    if (q.setting != NULL && wire < 2 && q.setting->value_names[wire] != NULL) {
-        put_string(out, q.setting->value_names[wire]);
+    if (q.setting != NULL) {
+        num = q.setting->scale_num;
+        den = q.setting->scale_den;
+        name = nurimc_setting_choice_name(q.setting, (uint16_t)wire);
     } else {
-        units_from_wire(wire, q.num, q.den, direction == 1, text, sizeof text);
+        num = motion_field(q.kind)->scale_num;
+        den = motion_field(q.kind)->scale_den;
+    }
+    put(out, "{\"value\":");
+    if (name != NULL) {
+        put_string(out, name);
+    } else if (nurimc_units_format(wire, num, den, direction == 1, text, sizeof text, NULL) == NURIMC_OK) {
         put(out, text);
+    } else {
+        fputs("conformance: a wire value that does not format\n", stderr);
+        exit(1);
     }
     put(out, "}");
 }

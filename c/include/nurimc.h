@@ -2,7 +2,8 @@
  * nurimc — MC-RS485 V1.0.1 protocol core for C99 and C++.
  *
  * Sans-I/O: no dynamic allocation, no global state, no I/O and no dependence on host
- * endianness. Field values are raw wire integers (see docs/protocol.md for units).
+ * endianness. Field values are raw wire integers (see docs/protocol.md for units;
+ * <nurimc_units.h> converts physical values).
  * The message table is generated from spec/protocol.json (nurimc_messages.h).
  * The POSIX serial host layer is in <nurimc_posix.h>.
  */
@@ -35,7 +36,9 @@ typedef enum nurimc_status {
     NURIMC_E_ARGUMENT,        /**< a NULL pointer or other invalid argument */
     NURIMC_E_IO,              /**< host layer: the operating system reported an error (see errno) */
     NURIMC_E_TIMEOUT,         /**< host layer: no answer before the deadline */
-    NURIMC_E_BAUD             /**< host layer: not one of the 18 protocol baud rates */
+    NURIMC_E_BAUD,            /**< host layer: not one of the 18 protocol baud rates */
+    NURIMC_E_NOT_FINITE,      /**< units: the value is NaN or infinite */
+    NURIMC_E_FRACTION         /**< units: a fraction where a whole number is needed */
 } nurimc_status;
 
 /** Message kinds: commands are never answered; requests are answered with mode + 0x30. */

@@ -44,8 +44,8 @@ int nurimc_baud_index(uint32_t baud) {
 }
 
 static const char *const status_names[] = {
-    "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size", "unknown_message",
-    "range", "buffer", "argument",  "io",       "timeout",  "baud",
+    "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size",       "unknown_message",
+    "range", "buffer", "argument",  "io",       "timeout",  "baud",         "not_finite", "fraction",
 };
 
 static const char *const status_texts[] = {
@@ -63,6 +63,8 @@ static const char *const status_texts[] = {
     "I/O error (see errno)",
     "no answer before the deadline",
     "not one of the protocol's 18 baud rates",
+    "value is not a finite number",
+    "a whole number is needed",
 };
 
 const char *nurimc_status_name(nurimc_status status) {
