@@ -445,6 +445,9 @@ test("ID and baud changes are verified; factory reset runs only after its typed 
 });
 
 test("server mode picks the port and rate; the simulated bus explains it cannot change port", async () => {
+  await page.evaluate(() => {
+    document.querySelector("#bus-text").textContent = ""; // filled again by the ports answer to this visit
+  });
   await page.click("nav button[data-view=setup]");
   await page.waitForFunction(() => /open: sim:\/\//.test(document.querySelector("#bus-text").textContent));
   assert.deepEqual(await page.locator("#bus-port option").allTextContents(), ["sim://"]);
