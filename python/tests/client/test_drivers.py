@@ -221,3 +221,32 @@ def test_both_drivers_close_the_procedure(fail_at: int | None, run: Callable[[Pr
             run(procedure, port)
         assert log == ["PortError", "closed"]  # thrown in at the Send, then closed
     assert inspect.getgeneratorstate(procedure) == inspect.GEN_CLOSED  # nothing left suspended
+
+
+class Interrupting:
+    """A listener that raises KeyboardInterrupt (Ctrl-C) when the first answer byte comes."""
+
+    def record(self, direction: str, data: bytes) -> None:
+        if direction == "rx":
+            raise KeyboardInterrupt
+
+    def close(self) -> None:
+        pass
+
+
+def test_ctrl_c_in_the_middle_of_a_discovery_is_thrown_in_and_the_bus_restored() -> None:
+    port = FakeBus()
+    bus = Bus(port, listeners=[Interrupting()])
+    with pytest.raises(KeyboardInterrupt):
+        bus.run(discover(bus.core, rates=RATES))
+    assert port.rate == START_RATE and bus.core.baudrate == START_RATE
+    assert port.rates_set[-2:] == [115200, START_RATE]  # interrupted where ID 5 answered, then back
+
+    async def main() -> None:
+        async_port = FakeBus()
+        async_bus = AsyncBus(async_port, listeners=[Interrupting()])
+        with pytest.raises(KeyboardInterrupt):
+            await async_bus.run(discover(async_bus.core, rates=RATES))
+        assert async_port.rate == START_RATE and async_bus.core.baudrate == START_RATE
+
+    asyncio.run(main())

@@ -12,7 +12,7 @@ from nurimc.client.core import BusCore
 from nurimc.client.timing import MAX_RESPONSE_TIME, Timing
 from nurimc.config import change_baud, change_id
 from nurimc.discovery import WALK_RESPONSE_TIME, Found, Progress, discover
-from nurimc.errors import CallTimeout, IdInUse, NoAnswer, SettingNotApplied
+from nurimc.errors import CallTimeout, ControllerBusy, IdInUse, NoAnswer, SettingNotApplied
 from nurimc.group import read_states_broadcast
 from nurimc.motor import MotorProcedures, MotorState
 from nurimc.protocol import (
@@ -340,3 +340,33 @@ def test_broadcast_read_is_whole_even_when_a_motor_never_answers() -> None:
     states = s.result()
     assert list(states) == [1, 2]
     assert isinstance(states[1], NoAnswer) and isinstance(states[2], MotorState)
+
+
+def test_a_broadcast_settings_command_makes_every_id_wait() -> None:
+    for device_id in (0, 4, 200):
+        core = bus_core(115200, busy_window=0.1)
+        MotorProcedures(core, 4, product="blmc-h")
+        core.busy_windows[4] = 0.25  # the largest window of any ID: a broadcast waits for it
+        s = Stepper(core.tell(SetControl(BROADCAST_ID, 1)))
+        s.sent()
+        end = s.clock + TIMING.wire_time(7, 115200) + TIMING.latency + 0.25
+        ask = Stepper(core.ask(RequestPosition(device_id)), clock=s.clock)
+        assert [w.when for w in ask.waits if type(w) is WaitUntil] == [pytest.approx(end)], device_id
+        assert ask.expect(Send).data == RequestPosition(device_id).encode()
+
+
+def test_silence_right_after_a_settings_write_is_busy_not_wiring() -> None:
+    core = bus_core(115200, busy_window=0.05, retries=1)
+    Stepper(core.tell(SetControl(1, 0))).sent()
+    s = Stepper(core.ask(RequestPosition(1)))
+    s.sent()
+    s.silence()
+    s.sent()
+    with pytest.raises(ControllerBusy, match="busy writing its settings"):
+        s.silence()
+    far = Stepper(core.ask(RequestPosition(1), retries=0), clock=s.clock + 1.0)  # long after: the usual checklist
+    far.silence()  # the quiet period for the answers still owed
+    far.sent()
+    with pytest.raises(NoAnswer) as err:
+        far.silence()
+    assert not isinstance(err.value, ControllerBusy) and "wires" in str(err.value)
