@@ -5,7 +5,7 @@
 // in JavaScript (TypedArray.indexOf for the header, a Map from mode to layout, the checksum
 // loop, the same message objects out: {name, id, <fields>}), on the same streams and chunkings:
 // mixed messages and position feedback, in 256-, 64- and 12-byte chunks. The two run in
-// interleaved rounds (A, B, A, B, ...) so that a slow moment of the machine hits both; the
+// interleaved rounds (A B, B A, A B, ...) so that a slow moment of the machine hits both; the
 // figure is the median round, and the ratio is hand-written time / StreamParser time (above
 // 1.0 = StreamParser is faster). Same method as benchmarks/protocol_bench.py; see
 // docs/performance.md. Encode and decode rates are printed for reference.
@@ -152,8 +152,16 @@ function compare(chunks) {
   const hand = [];
   const ratios = [];
   for (let r = 0; r < ROUNDS; r++) {
-    const a = timed(runOurs, chunks);
-    const b = timed(runHand, chunks);
+    // the order alternates, so neither parser always runs first in a round
+    let a;
+    let b;
+    if (r % 2) {
+      b = timed(runHand, chunks);
+      a = timed(runOurs, chunks);
+    } else {
+      a = timed(runOurs, chunks);
+      b = timed(runHand, chunks);
+    }
     ours.push(a);
     hand.push(b);
     ratios.push(b / a);
