@@ -1,17 +1,23 @@
 /*
  * The stream parser. The rule (conformance/README.md): where a whole valid frame starts,
  * take it; otherwise drop one byte and look again from the next. Candidates are rejected
- * as soon as their bytes allow (size byte, mode), so the buffer holds at most one frame.
+ * as soon as their mode byte arrives if their size byte or mode is wrong, so the buffer holds
+ * at most one frame.
  *
  * Two paths, one rule (docs/performance.md):
  * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), `next` says
- *   which byte next needs a look. Bytes before it (the ID, the checksum, data bytes) are only
- *   stored; the others get one check each (FF, FE, the size byte, the mode byte, and at the
- *   candidate's last byte the checksum and the unpack). O(1) per byte, no re-scan, no copy.
+ *   which byte next needs a look. Bytes before it (ID, size, checksum, data) are only stored
+ *   and summed; the others get one check each: FF, FE, the mode byte (which checks the size
+ *   byte with it: each mode has one size) and the candidate's last byte (the checksum against
+ *   the running sum, then the unpack). O(1) per byte, no re-scan, no copy.
  *   nurimc_parser_feed judges whole candidates in place in the caller's bytes, no copy either.
  * - the re-scan (scan()): whenever a held candidate is rejected, or a call has taken a frame
  *   and kept bytes after it, the general scan judges the held bytes from the start, as the rule
  *   says; it is rare (noise, corruption) and bounded by the 12-byte buffer.
+ * Checking the size byte at the mode byte, not when it arrives, delays no frame: a frame inside
+ * a rejected candidate starts at its ID byte or later, so it ends after the mode byte. Only the
+ * moment a bad size is counted (and its bytes dropped) moves, by up to two bytes; frames, the
+ * byte that completes each, and the counters after nurimc_parser_finish are the same.
  */
 #include "nurimc.h"
 
@@ -115,7 +121,10 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
     /* Without a frame taken, what is left is one undecided candidate (or FF, or nothing): the
        fast path takes over, told which byte next needs a look. After a frame, the bytes behind
        it are unjudged: the next call scans again. */
-    if (found && p->length > 1) { /* (a single byte left is a lone FF: nothing to judge) */
+    /* (With this protocol's 6..12-byte frames a scan never takes a frame and keeps two or more
+       bytes after it: a frame inside a rejected candidate starts at index 6 or later. The state
+       keeps the parser right should the sizes change.) A single byte left is a lone FF. */
+    if (found && p->length > 1) {
         p->state = RESCAN;
         p->next = 0;
     } else {
@@ -123,10 +132,7 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
         for (i = ID_OFFSET; i < held; i++) sum += buf[i];
         p->state = CANDIDATE;
         p->sum = (uint8_t)sum;
-        p->next = (uint8_t)(held < 2   ? 0u
-                            : held < 4 ? SIZE_OFFSET
-                            : held < 6 ? MODE_OFFSET
-                                       : buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD - 1u);
+        p->next = (uint8_t)(held < 2 ? 0u : held < 6 ? MODE_OFFSET : buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD - 1u);
     }
     return found;
 }
@@ -173,7 +179,7 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
     unsigned n;
     if (p == NULL || out == NULL) return 0;
     n = p->length;
-    if (n < p->next) { /* the ID, checksum or a data byte of a candidate: nothing to check yet */
+    if (n < p->next) { /* the ID, size, checksum or a data byte of a candidate: nothing to check yet */
         p->buf[n] = byte;
         p->length = (uint8_t)(n + 1);
         p->sum = (uint8_t)(p->sum + byte);
@@ -192,7 +198,7 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
         if (byte == NURIMC_HEADER_1) {
             p->buf[1] = byte;
             p->length = 2;
-            p->next = SIZE_OFFSET; /* the ID byte needs no look */
+            p->next = MODE_OFFSET; /* the ID, size and checksum bytes need no look yet */
             p->sum = 0;
         } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
             p->stats.dropped_bytes++;
@@ -203,17 +209,10 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
         return 0;
     }
     if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
-    if (n == SIZE_OFFSET) {
-        if (byte < 2 || byte > NURIMC_MAX_SIZE) return push_and_scan(p, byte, out); /* the scan counts it */
-        p->buf[SIZE_OFFSET] = byte;
-        p->length = 4;
-        p->sum = (uint8_t)(p->sum + byte);
-        p->next = MODE_OFFSET; /* the checksum byte needs no look */
-        return 0;
-    }
     if (n == MODE_OFFSET) {
         uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
         unsigned size = p->buf[SIZE_OFFSET];
+        /* a bad size byte fails here too (no mode has it); the scan counts which check failed */
         if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) return push_and_scan(p, byte, out);
         if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
         p->buf[MODE_OFFSET] = byte;

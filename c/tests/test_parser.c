@@ -197,6 +197,136 @@ static void test_random_streams(void) {
     }
 }
 
+/* The rule applied offline to a whole input, independently of the streaming code: at each
+   position, judge the candidate there on all the bytes that follow (size byte, mode, the mode's
+   size, checksum); take a valid frame and continue after it, else drop one byte. */
+static void reference_parse(const uint8_t *data, size_t length, result *r) {
+    size_t pos = 0;
+    memset(r, 0, sizeof *r);
+    while (pos < length) {
+        size_t avail = length - pos;
+        const uint8_t *b = data + pos;
+        nurimc_message msg;
+        nurimc_message_type type;
+        if (avail < 2 || b[0] != 0xFF || b[1] != 0xFE || avail < 4) {
+            r->stats.dropped_bytes++;
+            pos++;
+            continue;
+        }
+        if (b[3] < 2 || b[3] > NURIMC_MAX_SIZE) {
+            r->stats.bad_size++;
+        } else if (avail < 6) {
+            /* cut off by the end of the input: dropped, not counted */
+        } else if ((type = nurimc_type_by_mode(b[5])) == NURIMC_MSG_NONE) {
+            r->stats.unknown_mode++;
+        } else if (nurimc_spec(type)->size != b[3]) {
+            r->stats.bad_size++;
+        } else if (avail < (size_t)b[3] + 4u) {
+            /* cut off */
+        } else if (nurimc_decode(b, (size_t)b[3] + 4u, &msg) != NURIMC_OK) {
+            r->stats.bad_checksum++;
+        } else {
+            if (r->count < MAX_FRAMES) r->frames[r->count] = msg;
+            r->count++;
+            r->stats.frames++;
+            pos += (size_t)b[3] + 4u;
+            continue;
+        }
+        r->stats.dropped_bytes++;
+        pos++;
+    }
+}
+
+/* Random streams of frames, corrupted frames (one flipped bit), fragments, FF FE pairs and
+   noise: push, feed in every chunking and the offline rule give the same frames and counters. */
+static void test_matches_offline_rule(void) {
+    uint32_t seed = 2024;
+    int round;
+    for (round = 0; round < 2000; round++) {
+        uint8_t data[200];
+        size_t n = 0;
+        result online, offline;
+        while (n + NURIMC_MAX_FRAME_LENGTH < sizeof data) {
+            seed = seed * 1103515245u + 12345u;
+            switch ((seed >> 16) % 6) {
+            case 0: data[n++] = (uint8_t)(seed >> 8); break;
+            case 1: data[n++] = 0xFF; break;
+            case 2: data[n++] = 0xFE; break;
+            default: {
+                nurimc_message msg = nurimc_message_init((nurimc_message_type)((seed >> 8) % NURIMC_MESSAGE_COUNT), 3);
+                const nurimc_message_spec *spec = nurimc_spec(msg.type);
+                size_t frame_length = 0;
+                int f;
+                for (f = 0; f < spec->field_count; f++) {
+                    unsigned span = (unsigned)spec->fields[f].max - spec->fields[f].min + 1u;
+                    nurimc_set_field(&msg, f, (uint16_t)(spec->fields[f].min + (seed >> 4) % span));
+                }
+                CHECK_EQ(nurimc_encode(&msg, data + n, sizeof data - n, &frame_length, NULL), NURIMC_OK);
+                if ((seed >> 26) % 4 == 0) { /* one flipped bit after the header */
+                    data[n + 2 + (seed >> 9) % (frame_length - 2)] ^= (uint8_t)(1u << ((seed >> 13) % 8));
+                }
+                if ((seed >> 24) % 5 == 0) frame_length = (seed >> 20) % frame_length; /* a fragment */
+                n += frame_length;
+            }
+            }
+        }
+        reference_parse(data, n, &offline);
+        check_all_chunkings(data, n, &online); /* push, and feed in chunks of 1..13 and all */
+        CHECK(same_result(&online, &offline));
+    }
+}
+
+/* On a clean stream push returns each frame at its last byte, holding nothing after it. */
+static void test_push_returns_at_last_byte(void) {
+    nurimc_parser parser;
+    nurimc_message msg;
+    int type;
+    nurimc_parser_init(&parser);
+    for (type = 0; type < (int)NURIMC_MESSAGE_COUNT; type++) {
+        uint8_t frame[NURIMC_MAX_FRAME_LENGTH];
+        size_t length = 0, i;
+        nurimc_message in = nurimc_message_init((nurimc_message_type)type, 9);
+        const nurimc_message_spec *spec = nurimc_spec(in.type);
+        int f;
+        for (f = 0; f < spec->field_count; f++) nurimc_set_field(&in, f, spec->fields[f].max);
+        if (nurimc_encode(&in, frame, sizeof frame, &length, NULL) != NURIMC_OK) {
+            CHECK(0);
+            return;
+        }
+        for (i = 0; i + 1 < length; i++) {
+            CHECK_EQ(nurimc_parser_push(&parser, frame[i], &msg), 0);
+            CHECK_EQ(nurimc_parser_pending(&parser), i + 1);
+        }
+        CHECK_EQ(nurimc_parser_push(&parser, frame[length - 1], &msg), 1);
+        CHECK_EQ(msg.type, (nurimc_message_type)type);
+        CHECK_EQ(msg.id, 9);
+        CHECK_EQ(nurimc_parser_pending(&parser), 0);
+    }
+    CHECK_EQ(parser.stats.frames, NURIMC_MESSAGE_COUNT);
+    CHECK_EQ(parser.stats.dropped_bytes, 0);
+}
+
+/* A wrong size byte is judged with the mode byte: counted once, as a bad size, and the bytes
+   after it are looked at again (here a frame starts at the candidate's checksum byte). */
+static void test_bad_size_judged_with_mode(void) {
+    const uint8_t data[] = {0xFF, 0xFE, 0x00, 0x09, 0xFF, 0xFE, 0x00, 0x02, 0x5D, 0xA0};
+    nurimc_parser parser;
+    nurimc_message msg;
+    size_t i;
+    result r;
+    check_all_chunkings(data, sizeof data, &r);
+    CHECK_EQ(r.count, 1);
+    CHECK_EQ(r.frames[0].type, NURIMC_MSG_REQUEST_PING);
+    CHECK_EQ(r.stats.bad_size, 1);
+    CHECK_EQ(r.stats.dropped_bytes, 4);
+    nurimc_parser_init(&parser);
+    for (i = 0; i + 1 < sizeof data; i++) CHECK_EQ(nurimc_parser_push(&parser, data[i], &msg), 0);
+    CHECK_EQ(nurimc_parser_push(&parser, data[sizeof data - 1], &msg), 1);
+    CHECK_EQ(msg.type, NURIMC_MSG_REQUEST_PING);
+    CHECK_EQ(parser.stats.bad_size, 1);
+    CHECK_EQ(nurimc_parser_pending(&parser), 0);
+}
+
 int main(void) {
     test_noise_and_frames();
     test_bad_checksum_hides_no_frame();
@@ -204,5 +334,8 @@ int main(void) {
     test_partial_frame_at_end();
     test_clear_counts_dropped();
     test_random_streams();
+    test_matches_offline_rule();
+    test_push_returns_at_last_byte();
+    test_bad_size_judged_with_mode();
     return check_report("test_parser");
 }

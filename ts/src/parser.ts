@@ -7,10 +7,21 @@
  * it is never lost. Candidates are rejected as early as their bytes allow (a size byte
  * no message has, an unknown mode), so the buffer never holds more than one frame's
  * worth of bytes between calls and a false header never holds later frames hostage.
+ *
+ * Speed (docs/performance.md): a chunk is scanned where it lies, never copied; only the
+ * few bytes of an undecided candidate at its end are kept (at most 11), and the next
+ * chunk first completes them in a small fixed buffer with just enough of its bytes.
+ * Modes are looked up in a 256-entry table, the checksum is summed inline.
  */
 import { BY_MODE, decodeValid, type Message } from "./codec.js";
-import { CHECKSUM_OFFSET, expectedChecksum, HEADER_0, HEADER_1, MODE_OFFSET, SIZE_OFFSET } from "./frame.js";
+import { CHECKSUM_OFFSET, HEADER_0, HEADER_1, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET } from "./frame.js";
 import { MAX_SIZE } from "./generated/tables.js";
+import type { MessageSpec } from "./schema.js";
+
+/** The longest frame (size byte MAX_SIZE plus header, ID, size and checksum bytes). */
+const MAX_FRAME_LENGTH = MAX_SIZE + 4;
+/** The spec of each mode byte, or undefined: an array index is cheaper than a Map lookup. */
+const SPEC_OF_MODE: readonly (MessageSpec | undefined)[] = Array.from({ length: 256 }, (_, mode) => BY_MODE.get(mode));
 
 /** What the parser has seen since it was made (or reset). */
 export interface ParserStats {
@@ -33,7 +44,8 @@ export const emptyStats = (): ParserStats => ({
 /** Feed bytes, get messages. Never throws on garbage; memory stays bounded. */
 export class StreamParser {
   readonly stats: ParserStats = emptyStats();
-  private buf = new Uint8Array(64);
+  /** Held bytes, then room for the bytes of the next chunk that complete them. */
+  private readonly buf = new Uint8Array(2 * MAX_FRAME_LENGTH);
   private length = 0;
 
   /** Bytes held back because they may begin a frame. */
@@ -43,19 +55,34 @@ export class StreamParser {
 
   /** Add bytes; return every frame they complete, in order. */
   feed(data: Uint8Array): Message[] {
-    if (this.length + data.length > this.buf.length) {
-      const grown = new Uint8Array(Math.max(this.buf.length * 2, this.length + data.length));
-      grown.set(this.buf.subarray(0, this.length));
-      this.buf = grown;
+    const out: Message[] = [];
+    let from = 0;
+    if (this.length > 0) {
+      // Judge the held bytes with just enough of the new ones: any candidate that starts in
+      // them is decided by the next MAX_FRAME_LENGTH - 1 bytes.
+      const held = this.length;
+      const taken = Math.min(data.length, MAX_FRAME_LENGTH - 1);
+      this.buf.set(data.subarray(0, taken), held);
+      const n = held + taken;
+      const pos = this.scan(this.buf, 0, n, false, out);
+      if (pos < held || taken === data.length) {
+        // (pos < held only when the chunk ended: a candidate is decided within MAX_FRAME_LENGTH bytes)
+        this.hold(this.buf, pos, n);
+        if (taken < data.length) out.push(...this.feed(data.subarray(taken)));
+        return out;
+      }
+      from = pos - held; // the rest is judged in place
+      this.length = 0;
     }
-    this.buf.set(data, this.length);
-    this.length += data.length;
-    return this.scan(false);
+    this.hold(data, this.scan(data, from, data.length, false, out), data.length);
+    return out;
   }
 
   /** End of stream (or the line went quiet): resolve held bytes; a partial frame is dropped. */
   finish(): Message[] {
-    return this.scan(true);
+    const out: Message[] = [];
+    this.hold(this.buf, this.scan(this.buf, 0, this.length, true, out), this.length);
+    return out;
   }
 
   /** Forget held bytes (counted as dropped), e.g. before a new request. */
@@ -64,14 +91,22 @@ export class StreamParser {
     this.length = 0;
   }
 
-  private scan(final: boolean): Message[] {
-    const { buf, stats } = this;
-    const n = this.length;
-    const out: Message[] = [];
-    let pos = 0;
+  /** Keep bytes[pos..n) (at most MAX_FRAME_LENGTH - 1 of them) for the next call. */
+  private hold(bytes: Uint8Array, pos: number, n: number): void {
+    if (bytes === this.buf) this.buf.copyWithin(0, pos, n);
+    else this.buf.set(bytes.subarray(pos, n));
+    this.length = n - pos;
+  }
+
+  /** Resolve what bytes[from..n) allows, appending frames to `out`; returns where it stopped. */
+  private scan(buf: Uint8Array, from: number, n: number, final: boolean, out: Message[]): number {
+    const stats = this.stats;
+    let pos = from;
     while (pos < n) {
-      const start = findHeader(buf, pos, n);
-      if (start < 0) {
+      let start = pos;
+      while (start + 1 < n && (buf[start] !== HEADER_0 || buf[start + 1] !== HEADER_1)) start++;
+      if (start + 1 >= n) {
+        // no header: keep a last FF that may begin one
         const keep = !final && buf[n - 1] === HEADER_0 ? 1 : 0;
         stats.droppedBytes += n - keep - pos;
         pos = n - keep;
@@ -79,57 +114,45 @@ export class StreamParser {
       }
       stats.droppedBytes += start - pos;
       pos = start;
-      if (this.rejectEarly(pos, n)) {
-        pos += 1;
-        continue;
-      }
-      if (n - pos >= 6) {
-        const spec = BY_MODE.get(buf[pos + MODE_OFFSET] ?? -1);
-        const end = pos + (buf[pos + SIZE_OFFSET] ?? 0) + 4;
-        if (spec !== undefined && end <= n) {
-          if (buf[pos + CHECKSUM_OFFSET] === expectedChecksum(buf, pos, end)) {
-            out.push(decodeValid(spec, buf, pos));
-            stats.frames += 1;
-            pos = end;
-          } else {
-            stats.badChecksum += 1;
+      const avail = n - pos;
+      if (avail >= 4) {
+        const size = buf[pos + SIZE_OFFSET] ?? 0;
+        if (size < 2 || size > MAX_SIZE) {
+          stats.badSize += 1;
+          stats.droppedBytes += 1;
+          pos += 1;
+          continue;
+        }
+        if (avail >= 6) {
+          const spec = SPEC_OF_MODE[buf[pos + MODE_OFFSET] ?? 0];
+          if (spec === undefined || spec.size !== size) {
+            if (spec === undefined) stats.unknownMode += 1;
+            else stats.badSize += 1;
             stats.droppedBytes += 1;
             pos += 1;
+            continue;
           }
-          continue;
+          const end = pos + size + 4;
+          if (end <= n) {
+            let sum = (buf[pos + ID_OFFSET] ?? 0) + size;
+            for (let i = pos + MODE_OFFSET; i < end; i++) sum += buf[i] ?? 0;
+            if (buf[pos + CHECKSUM_OFFSET] === (~sum & 0xff)) {
+              out.push(decodeValid(spec, buf, pos));
+              stats.frames += 1;
+              pos = end;
+            } else {
+              stats.badChecksum += 1;
+              stats.droppedBytes += 1;
+              pos += 1;
+            }
+            continue;
+          }
         }
       }
       if (!final) break; // an incomplete candidate: wait for more bytes
       stats.droppedBytes += 1;
       pos += 1;
     }
-    buf.copyWithin(0, pos, n);
-    this.length = n - pos;
-    return out;
+    return pos;
   }
-
-  /** True (and counted) if the candidate at pos is no frame, judging by the bytes present. */
-  private rejectEarly(pos: number, n: number): boolean {
-    if (n - pos < 4) return false;
-    const size = this.buf[pos + SIZE_OFFSET] ?? 0;
-    if (size < 2 || size > MAX_SIZE) {
-      this.stats.badSize += 1;
-    } else if (n - pos < 6) {
-      return false;
-    } else {
-      const spec = BY_MODE.get(this.buf[pos + MODE_OFFSET] ?? -1);
-      if (spec !== undefined && spec.size === size) return false;
-      if (spec === undefined) this.stats.unknownMode += 1;
-      else this.stats.badSize += 1;
-    }
-    this.stats.droppedBytes += 1;
-    return true;
-  }
-}
-
-function findHeader(buf: Uint8Array, from: number, n: number): number {
-  for (let i = from; i + 1 < n; i++) {
-    if (buf[i] === HEADER_0 && buf[i + 1] === HEADER_1) return i;
-  }
-  return -1;
 }

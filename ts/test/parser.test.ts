@@ -1,9 +1,9 @@
 import fc from "fast-check";
 import { describe, expect, it } from "vitest";
-import { encode, type Message, make, toRecord } from "../src/codec.js";
+import { BY_MODE, decode, encode, type Message, make, toRecord } from "../src/codec.js";
 import { MESSAGE_NAMES } from "../src/generated/messages.js";
 import { SPECS } from "../src/generated/tables.js";
-import { StreamParser } from "../src/parser.js";
+import { emptyStats, type ParserStats, StreamParser } from "../src/parser.js";
 import { concat } from "./fake-port.js";
 
 const anyMessage: fc.Arbitrary<Message> = fc.constantFrom(...MESSAGE_NAMES).chain((name) => {
@@ -25,6 +25,59 @@ function parseAll(stream: Uint8Array, cuts: number[]): { frames: Message[]; drop
   frames.push(...parser.feed(stream.subarray(last)), ...parser.finish());
   return { frames, dropped: parser.stats.droppedBytes };
 }
+
+/** The rule applied offline to a whole input, independently of the streaming code: at each
+ * position judge the candidate there on all the bytes that follow (size byte, mode, the mode's
+ * size, checksum); take a valid frame and continue after it, else drop one byte. */
+function offlineRule(bytes: Uint8Array): { frames: Message[]; stats: ParserStats } {
+  const stats = emptyStats();
+  const frames: Message[] = [];
+  let pos = 0;
+  while (pos < bytes.length) {
+    const avail = bytes.length - pos;
+    const size = bytes[pos + 3] ?? 0;
+    const spec = BY_MODE.get(bytes[pos + 5] ?? -1);
+    if (avail >= 4 && bytes[pos] === 0xff && bytes[pos + 1] === 0xfe) {
+      if (size < 2 || size > 8) stats.badSize += 1;
+      else if (avail < 6) {
+        // cut off by the end: dropped, not counted
+      } else if (spec === undefined) stats.unknownMode += 1;
+      else if (spec.size !== size) stats.badSize += 1;
+      else if (avail >= size + 4) {
+        try {
+          frames.push(decode(bytes.subarray(pos, pos + size + 4)));
+          stats.frames += 1;
+          pos += size + 4;
+          continue;
+        } catch {
+          stats.badChecksum += 1;
+        }
+      }
+    }
+    stats.droppedBytes += 1;
+    pos += 1;
+  }
+  return { frames, stats };
+}
+
+/** Frames, fragments, frames with one flipped bit after the header, FF FE pairs and noise. */
+const hostileStream = fc
+  .array(
+    fc.oneof(
+      fc.uint8Array({ maxLength: 6 }),
+      fc.constant(new Uint8Array([0xff, 0xfe])),
+      anyMessage.map(encode),
+      fc.tuple(anyMessage.map(encode), fc.nat()).map(([f, cut]) => f.subarray(0, cut % f.length)),
+      fc.tuple(anyMessage.map(encode), fc.nat(), fc.integer({ min: 0, max: 7 })).map(([f, at, bit]) => {
+        const g = f.slice();
+        const i = 2 + (at % (g.length - 2));
+        g[i] = (g[i] ?? 0) ^ (1 << bit);
+        return g;
+      }),
+    ),
+    { maxLength: 40 },
+  )
+  .map((p) => concat(...p));
 
 describe("stream parser", () => {
   it("finds every frame between noise that holds no header byte, and counts the noise", () => {
@@ -61,6 +114,43 @@ describe("stream parser", () => {
       }),
       { numRuns: 1000 },
     );
+  });
+
+  it("matches the rule applied offline, frames and every counter, however the input is chunked", () => {
+    fc.assert(
+      fc.property(hostileStream, fc.array(fc.nat(), { maxLength: 12 }), (bytes, cuts) => {
+        const expected = offlineRule(bytes);
+        const parser = new StreamParser();
+        const frames: Message[] = [];
+        let last = 0;
+        for (const cut of cuts.map((c) => c % (bytes.length + 1)).sort((a, b) => a - b)) {
+          frames.push(...parser.feed(bytes.subarray(last, cut)));
+          expect(parser.pending).toBeLessThan(12);
+          last = cut;
+        }
+        frames.push(...parser.feed(bytes.subarray(last)), ...parser.finish());
+        expect(frames).toEqual(expected.frames);
+        expect(parser.stats).toEqual(expected.stats);
+        expect(parser.pending).toBe(0);
+      }),
+      { numRuns: 1500 },
+    );
+  });
+
+  it("parses a large input in one call, and the same byte by byte", () => {
+    const messages = Array.from({ length: 5000 }, (_, i) => {
+      const spec = SPECS[MESSAGE_NAMES[i % MESSAGE_NAMES.length] as (typeof MESSAGE_NAMES)[number]];
+      return make(spec.name, i % 200, Object.fromEntries(spec.fields.map((f) => [f.name, f.max])));
+    });
+    const stream = concat(...messages.map(encode));
+    const whole = new StreamParser();
+    expect(whole.feed(stream)).toEqual(messages);
+    expect(whole.pending).toBe(0);
+    const byByte = new StreamParser();
+    const frames: Message[] = [];
+    for (let i = 0; i < stream.length; i++) frames.push(...byByte.feed(stream.subarray(i, i + 1)));
+    expect(frames).toEqual(messages);
+    expect(byByte.stats).toEqual({ ...emptyStats(), frames: messages.length });
   });
 
   it("keeps bounded memory and never throws on garbage", () => {
