@@ -45,6 +45,9 @@ class HostLink:
         self.monitor = monitor
         self.rx = bytearray()  # bytes that reached this host and were not read yet
         self.closed = False
+        # called (under the bus lock) when bytes reach rx: an endpoint sleeping in select() wakes
+        # at once, even if another thread (the physics tick, another host) delivered them
+        self.wake: Callable[[], None] | None = None
 
     def write(self, data: bytes) -> None:
         self.bus.host_write(self, data)
@@ -304,6 +307,8 @@ class BusCore:
         if link.baud != baud:
             chunk = self._garbler.garble(chunk, baud, link.baud)
         link.rx += self.faults.corrupt(chunk, noise=True)
+        if link.wake is not None:
+            link.wake()
 
     def next_delivery(self) -> float | None:
         """Bus time of the next byte due at the hosts, or None if nothing is on the way."""

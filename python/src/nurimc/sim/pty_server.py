@@ -33,6 +33,12 @@ def host_baud(fd: int, fallback: int) -> int:
         return fallback
 
 
+def _drain(fd: int) -> None:
+    with contextlib.suppress(OSError):
+        while os.read(fd, 4096):
+            pass
+
+
 def _live_terminal(target: str) -> bool:
     try:
         return stat.S_ISCHR(os.stat(target).st_mode)
@@ -72,6 +78,9 @@ class PtyServer:
         termios.tcsetattr(self.slave, termios.TCSANOW, attrs)
         self.host: HostLink = bus.open_link(host_baud(self.master, default_baud), monitor=monitor)
         self._wake_r, self._wake_w = os.pipe()
+        for fd in (self._wake_r, self._wake_w):
+            os.set_blocking(fd, False)
+        self.host.wake = self._wake
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="nurimc-sim-pty", daemon=True)
 
@@ -116,6 +125,8 @@ class PtyServer:
                 readable, _, _ = select.select([self.master, self._wake_r], want_write, [], timeout)
             except (OSError, ValueError):
                 break
+            if self._wake_r in readable:
+                _drain(self._wake_r)
             if self.master in readable:
                 try:
                     data = os.read(self.master, 4096)
@@ -139,11 +150,17 @@ class PtyServer:
                 if len(pending) > 65536:  # a host that never reads loses the oldest bytes
                     del pending[:-65536]
 
+    def _wake(self) -> None:
+        if threading.current_thread() is self._thread and not self._stop.is_set():
+            return  # our own loop delivered them: it writes them out before it sleeps again
+        with contextlib.suppress(OSError):  # full (a wake is pending anyway) or closed
+            os.write(self._wake_w, b"x")
+
     def stop(self) -> None:
         if self._stop.is_set():
             return
         self._stop.set()
-        os.write(self._wake_w, b"x")
+        self._wake()
         if self._thread.is_alive():
             self._thread.join(timeout=2)
         self.host.close()
