@@ -69,7 +69,7 @@ def _in_process_ports(stack: contextlib.ExitStack) -> dict[int, serial.SerialBas
     for n in BUS_SIZES:
         bus = _poll_bus(n, wire_timing=False)
         stack.callback(bus.close)
-        ports[n] = bus.open_serial(baudrate=POLL_BAUD, timeout=0.1)
+        ports[n] = bus.open_serial(baudrate=POLL_BAUD, timeout=0.5)
     return ports
 
 
@@ -81,7 +81,7 @@ def _pty_ports(stack: contextlib.ExitStack) -> dict[int, serial.SerialBase]:
         stack.callback(bus.close)
         endpoint = bus.serve_pty(link=os.path.join(scratch, f"tty{n}"))
         stack.callback(endpoint.stop)
-        ports[n] = stack.enter_context(serial.Serial(endpoint.path, POLL_BAUD, timeout=0.1))
+        ports[n] = stack.enter_context(serial.Serial(endpoint.path, POLL_BAUD, timeout=0.5))
     return ports
 
 
