@@ -242,7 +242,15 @@ class BusCore:
             else:
                 targets = list(by_id.get(message.id, ()))
                 if not targets and explain:
-                    log.debug("@%d not taken: no controller has ID %d at this rate", rate, message.id)
+                    elsewhere = sorted(r for r, ids in self._listeners().items() if message.id in ids)
+                    log.debug(
+                        "@%d not taken: no controller has ID %d at this rate%s",
+                        rate,
+                        message.id,
+                        f" (wrong rate: ID {message.id} listens at {', '.join(map(str, elsewhere))} bps)"
+                        if elsewhere
+                        else "",
+                    )
             for controller in targets:
                 if controller.baud != rate:
                     continue  # it moved to another rate earlier in this frame's broadcast
