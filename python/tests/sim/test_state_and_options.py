@@ -251,3 +251,22 @@ def test_an_endpoint_asleep_in_select_wakes_for_bytes_another_thread_delivers(tm
     finally:
         watcher.stop()
         bus.close()
+
+
+def test_a_stale_link_to_a_pty_number_this_process_now_serves_is_replaced(tmp_path: Path) -> None:
+    """After kill -9 the next simulator may get the old pty numbers crosswise: a leftover link
+    that points at our own other endpoint is stale, not someone else's."""
+    bus = SimBus()
+    bus.add_controller(1)
+    main = bus.serve_pty(link=str(tmp_path / "tty"))
+    (tmp_path / "mon").symlink_to(main.path)  # the killed simulator's monitor link, number reused
+    monitor = bus.serve_monitor(link=str(tmp_path / "mon"))
+    try:
+        assert os.readlink(tmp_path / "mon") == monitor.path != main.path
+        with pytest.raises(FileExistsError, match="still in use"):
+            bus.serve_pty(link=str(tmp_path / "tty"))  # but a live link of ours is not taken over
+        assert os.readlink(tmp_path / "tty") == main.path
+    finally:
+        monitor.stop()
+        main.stop()
+        bus.close()

@@ -39,6 +39,10 @@ def _drain(fd: int) -> None:
             pass
 
 
+# the pseudo-terminals this process serves, by slave path (to tell our own from another's)
+_SERVED: dict[str, PtyServer] = {}
+
+
 def _live_terminal(target: str) -> bool:
     try:
         return stat.S_ISCHR(os.stat(target).st_mode)
@@ -92,6 +96,7 @@ class PtyServer:
                 self.host.close()
                 self._close_fds()
                 raise
+        _SERVED[self.path] = self
         self._thread.start()
         endpoint = PtyEndpoint(self.path)
         endpoint.server = self
@@ -105,7 +110,7 @@ class PtyServer:
             if not link.is_symlink():
                 raise FileExistsError(f"{link} exists and is not a symlink; choose another path")
             target = os.readlink(link)
-            if target != self.path and _live_terminal(target):  # our own pty: its number was reused
+            if self._owned_elsewhere(link, target):
                 raise FileExistsError(
                     f"{link} points to {target}, a pseudo-terminal still in use (another simulator?); "
                     "stop that one or choose another path"
@@ -115,6 +120,17 @@ class PtyServer:
             link.symlink_to(self.path)
         except FileExistsError:
             raise FileExistsError(f"{link} was just created by someone else; choose another path") from None
+
+    def _owned_elsewhere(self, link: Path, target: str) -> bool:
+        """Does `link` (pointing at `target`) belong to a live endpoint other than us? A pty
+        number is reused once its owner is gone, so a link to a pty this process serves is
+        stale unless that endpoint made this very link."""
+        if target == self.path:
+            return False
+        ours = _SERVED.get(target)
+        if ours is not None:
+            return ours.link_path is not None and os.path.abspath(ours.link_path) == os.path.abspath(link)
+        return _live_terminal(target)
 
     def _serve(self) -> None:
         pending = bytearray()
@@ -164,6 +180,8 @@ class PtyServer:
         if self._thread.is_alive():
             self._thread.join(timeout=2)
         self.host.close()
+        if _SERVED.get(self.path) is self:
+            del _SERVED[self.path]
         if self.link_path:
             link = Path(self.link_path)
             if link.is_symlink() and os.readlink(link) == self.path:
