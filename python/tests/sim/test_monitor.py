@@ -94,3 +94,15 @@ def test_verbose_log_says_why_frames_were_not_taken(caplog: pytest.LogCaptureFix
         "no controller listens at that rate",
     ):
         assert reason in text, reason
+
+
+def test_verbose_log_names_the_rate_of_an_id_addressed_at_the_wrong_one(caplog: pytest.LogCaptureFixture) -> None:
+    bus = SimBus()
+    bus.add_controller(1, 9600)
+    bus.add_controller(2, 57600)
+    caplog.set_level(logging.DEBUG, logger="nurimc.sim")
+    host = bus.open_serial(baudrate=9600, timeout=0.1)
+    host.write(frame(2, 0xA0))
+    assert host.read(6) == b""
+    assert "no controller has ID 2 at this rate (wrong rate: ID 2 listens at 57600 bps)" in caplog.text
+    bus.close()

@@ -232,3 +232,41 @@ def test_cli_monitor_hears_the_hosts_requests_and_commands(tmp_path: Path) -> No
         proc.communicate(timeout=10)
     assert proc.returncode == 0
     assert not link.exists() and not monitor.exists()
+
+
+def test_an_endpoint_asleep_in_select_wakes_for_bytes_another_thread_delivers(tmp_path: Path) -> None:
+    """Bytes that reach a pty's host from another thread (another host, the physics tick) are
+    written out at once, not when the endpoint's select() times out."""
+    bus = SimBus()
+    bus.add_controller(1)
+    bus.wait_hint = lambda cap=0.05: 5.0  # type: ignore[method-assign]  # sleep long unless woken
+    watcher = bus.serve_monitor(link=str(tmp_path / "mon"))
+    try:
+        with serial.Serial(str(tmp_path / "mon"), 9600, timeout=1.0) as monitor:
+            host = bus.open_serial(timeout=0.5)
+            host.write(frame(1, 0xA0))
+            assert monitor.read(6) == frame(1, 0xA0)  # heard from the in-process host's thread
+            assert monitor.read(6) == frame(1, 0xD0)  # the answer, delivered by that host's read
+            assert host.read(6) == frame(1, 0xD0)
+    finally:
+        watcher.stop()
+        bus.close()
+
+
+def test_a_stale_link_to_a_pty_number_this_process_now_serves_is_replaced(tmp_path: Path) -> None:
+    """After kill -9 the next simulator may get the old pty numbers crosswise: a leftover link
+    that points at our own other endpoint is stale, not someone else's."""
+    bus = SimBus()
+    bus.add_controller(1)
+    main = bus.serve_pty(link=str(tmp_path / "tty"))
+    (tmp_path / "mon").symlink_to(main.path)  # the killed simulator's monitor link, number reused
+    monitor = bus.serve_monitor(link=str(tmp_path / "mon"))
+    try:
+        assert os.readlink(tmp_path / "mon") == monitor.path != main.path
+        with pytest.raises(FileExistsError, match="still in use"):
+            bus.serve_pty(link=str(tmp_path / "tty"))  # but a live link of ours is not taken over
+        assert os.readlink(tmp_path / "tty") == main.path
+    finally:
+        monitor.stop()
+        main.stop()
+        bus.close()

@@ -45,6 +45,9 @@ class HostLink:
         self.monitor = monitor
         self.rx = bytearray()  # bytes that reached this host and were not read yet
         self.closed = False
+        # called (under the bus lock) when bytes reach rx: an endpoint sleeping in select() wakes
+        # at once, even if another thread (the physics tick, another host) delivered them
+        self.wake: Callable[[], None] | None = None
 
     def write(self, data: bytes) -> None:
         self.bus.host_write(self, data)
@@ -239,7 +242,15 @@ class BusCore:
             else:
                 targets = list(by_id.get(message.id, ()))
                 if not targets and explain:
-                    log.debug("@%d not taken: no controller has ID %d at this rate", rate, message.id)
+                    elsewhere = sorted(r for r, ids in self._listeners().items() if message.id in ids)
+                    log.debug(
+                        "@%d not taken: no controller has ID %d at this rate%s",
+                        rate,
+                        message.id,
+                        f" (wrong rate: ID {message.id} listens at {', '.join(map(str, elsewhere))} bps)"
+                        if elsewhere
+                        else "",
+                    )
             for controller in targets:
                 if controller.baud != rate:
                     continue  # it moved to another rate earlier in this frame's broadcast
@@ -304,6 +315,8 @@ class BusCore:
         if link.baud != baud:
             chunk = self._garbler.garble(chunk, baud, link.baud)
         link.rx += self.faults.corrupt(chunk, noise=True)
+        if link.wake is not None:
+            link.wake()
 
     def next_delivery(self) -> float | None:
         """Bus time of the next byte due at the hosts, or None if nothing is on the way."""
@@ -325,11 +338,17 @@ class BusCore:
 
     # --- physics in the background ------------------------------------------------------------
     def advance(self, now: float | None = None) -> None:
-        """Step every controller's physics up to `now` (the bus time by default)."""
+        """Step the physics of every moving controller up to `now` (the bus time by default).
+
+        A standing controller (static servo) is skipped: nothing about it changes but its clock,
+        and it jumps over the gap in O(1) when a frame next reaches it (take() advances it first).
+        So the background tick costs nothing per idle controller and does not slow the polling
+        of one controller on a large bus (benchmarks/sim_realtime.py)."""
         with self.lock:
             now = self.now() if now is None else now
             for c in self.controllers:
-                c.advance_to(now)
+                if not c.servo.static:
+                    c.advance_to(now)
             self.pump(now)
 
     def _start_ticker(self) -> None:

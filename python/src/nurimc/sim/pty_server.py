@@ -33,6 +33,16 @@ def host_baud(fd: int, fallback: int) -> int:
         return fallback
 
 
+def _drain(fd: int) -> None:
+    with contextlib.suppress(OSError):
+        while os.read(fd, 4096):
+            pass
+
+
+# the pseudo-terminals this process serves, by slave path (to tell our own from another's)
+_SERVED: dict[str, PtyServer] = {}
+
+
 def _live_terminal(target: str) -> bool:
     try:
         return stat.S_ISCHR(os.stat(target).st_mode)
@@ -72,6 +82,9 @@ class PtyServer:
         termios.tcsetattr(self.slave, termios.TCSANOW, attrs)
         self.host: HostLink = bus.open_link(host_baud(self.master, default_baud), monitor=monitor)
         self._wake_r, self._wake_w = os.pipe()
+        for fd in (self._wake_r, self._wake_w):
+            os.set_blocking(fd, False)
+        self.host.wake = self._wake
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="nurimc-sim-pty", daemon=True)
 
@@ -83,6 +96,7 @@ class PtyServer:
                 self.host.close()
                 self._close_fds()
                 raise
+        _SERVED[self.path] = self
         self._thread.start()
         endpoint = PtyEndpoint(self.path)
         endpoint.server = self
@@ -96,7 +110,7 @@ class PtyServer:
             if not link.is_symlink():
                 raise FileExistsError(f"{link} exists and is not a symlink; choose another path")
             target = os.readlink(link)
-            if target != self.path and _live_terminal(target):  # our own pty: its number was reused
+            if self._owned_elsewhere(link, target):
                 raise FileExistsError(
                     f"{link} points to {target}, a pseudo-terminal still in use (another simulator?); "
                     "stop that one or choose another path"
@@ -107,6 +121,17 @@ class PtyServer:
         except FileExistsError:
             raise FileExistsError(f"{link} was just created by someone else; choose another path") from None
 
+    def _owned_elsewhere(self, link: Path, target: str) -> bool:
+        """Does `link` (pointing at `target`) belong to a live endpoint other than us? A pty
+        number is reused once its owner is gone, so a link to a pty this process serves is
+        stale unless that endpoint made this very link."""
+        if target == self.path:
+            return False
+        ours = _SERVED.get(target)
+        if ours is not None:
+            return ours.link_path is not None and os.path.abspath(ours.link_path) == os.path.abspath(link)
+        return _live_terminal(target)
+
     def _serve(self) -> None:
         pending = bytearray()
         while not self._stop.is_set():
@@ -116,6 +141,8 @@ class PtyServer:
                 readable, _, _ = select.select([self.master, self._wake_r], want_write, [], timeout)
             except (OSError, ValueError):
                 break
+            if self._wake_r in readable:
+                _drain(self._wake_r)
             if self.master in readable:
                 try:
                     data = os.read(self.master, 4096)
@@ -139,14 +166,22 @@ class PtyServer:
                 if len(pending) > 65536:  # a host that never reads loses the oldest bytes
                     del pending[:-65536]
 
+    def _wake(self) -> None:
+        if threading.current_thread() is self._thread and not self._stop.is_set():
+            return  # our own loop delivered them: it writes them out before it sleeps again
+        with contextlib.suppress(OSError):  # full (a wake is pending anyway) or closed
+            os.write(self._wake_w, b"x")
+
     def stop(self) -> None:
         if self._stop.is_set():
             return
         self._stop.set()
-        os.write(self._wake_w, b"x")
+        self._wake()
         if self._thread.is_alive():
             self._thread.join(timeout=2)
         self.host.close()
+        if _SERVED.get(self.path) is self:
+            del _SERVED[self.path]
         if self.link_path:
             link = Path(self.link_path)
             if link.is_symlink() and os.readlink(link) == self.path:

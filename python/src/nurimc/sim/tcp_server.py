@@ -27,6 +27,8 @@ class TcpServer:
         self.address: tuple[str, int] = self.listener.getsockname()[:2]
         self.clients: dict[socket.socket, HostLink] = {}
         self._wake_r, self._wake_w = os.pipe()
+        for fd in (self._wake_r, self._wake_w):
+            os.set_blocking(fd, False)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="nurimc-sim-tcp", daemon=True)
 
@@ -41,6 +43,10 @@ class TcpServer:
                 readable, _, _ = select.select(sockets, [], [], self.bus.wait_hint())
             except (OSError, ValueError):
                 break
+            if self._wake_r in readable:
+                with contextlib.suppress(OSError):
+                    while os.read(self._wake_r, 4096):
+                        pass
             if self.listener in readable:
                 self._accept()
             for sock in list(self.clients):
@@ -62,7 +68,9 @@ class TcpServer:
         sock.setblocking(True)
         sock.settimeout(1.0)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.clients[sock] = self.bus.open_link(self.baud, monitor=self.monitor)
+        link = self.bus.open_link(self.baud, monitor=self.monitor)
+        link.wake = self._wake
+        self.clients[sock] = link
         log.info("tcp client %s:%d connected", *peer[:2])
 
     def _read(self, sock: socket.socket) -> None:
@@ -82,11 +90,17 @@ class TcpServer:
         with contextlib.suppress(OSError):
             sock.close()
 
+    def _wake(self) -> None:
+        if threading.current_thread() is self._thread and not self._stop.is_set():
+            return  # our own loop delivered them: it writes them out before it sleeps again
+        with contextlib.suppress(OSError):  # full (a wake is pending anyway) or closed
+            os.write(self._wake_w, b"x")
+
     def stop(self) -> None:
         if self._stop.is_set():
             return
         self._stop.set()
-        os.write(self._wake_w, b"x")
+        self._wake()
         if self._thread.is_alive():
             self._thread.join(timeout=2)
         for sock in list(self.clients):
