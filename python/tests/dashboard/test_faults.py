@@ -14,6 +14,7 @@ from nurimc.dashboard import DashboardConfig, create_app
 from nurimc.dashboard import commands as c
 from nurimc.dashboard.frames import FrameTap
 from nurimc.dashboard.security import SecurityPolicy, parse_listen
+from nurimc.dashboard.server import MESSAGE_LIMIT, TRANSPORT_LIMIT, uvicorn_options
 from nurimc.dashboard.simulated import simulated_bus
 from nurimc.dashboard.worker import MAX_PENDING
 
@@ -99,6 +100,31 @@ def test_every_bad_message_gets_an_error_reply_and_the_connection_stays_open(con
             assert reply["ok"] is False and reply["error"], text[:80]
             assert "internal error" not in reply["error"], (text[:80], reply["error"])
         assert ask(ws, "watch", ids=[1, 2])["ok"], "the same connection still works"
+
+
+@pytest.mark.parametrize("kind", ["text", "bytes"])
+def test_a_message_over_1_mib_is_answered_not_read(console: TestClient, kind: str) -> None:
+    size = MESSAGE_LIMIT + 1
+    with console.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
+        if kind == "text":  # valid JSON a byte too long: refused by its size, not parsed
+            head = '{"op": "watch", "req": "big", "ids": [1], "pad": "'
+            ws.send_text(head + "x" * (size - len(head) - 2) + '"}')
+        else:
+            ws.send_bytes(b"{" * size)
+        (reply,) = replies(ws, 1)
+        assert reply["req"] is None and reply["ok"] is False
+        assert reply["error"] == f"message of {size} bytes is over the 1 MiB limit"
+        assert ask(ws, "watch", ids=[1, 2])["ok"], "the same connection still works"
+
+
+def test_the_transport_assembles_up_to_the_hard_cap_and_pauses_between_messages() -> None:
+    from uvicorn.config import WS_PROTOCOLS
+
+    options = uvicorn_options()
+    assert options["ws_max_size"] == TRANSPORT_LIMIT == 16 * MESSAGE_LIMIT
+    assert options["ws_max_queue"] == 1, "the legacy implementation (old uvicorn) queues one message at most"
+    sansio = "websockets-sansio" in WS_PROTOCOLS
+    assert options["ws"] == ("websockets-sansio" if sansio else "websockets")
 
 
 def test_negative_rpm_and_blank_values_are_refused_with_a_reason() -> None:

@@ -1,7 +1,7 @@
 """The console tried from outside: the real `nurimc dashboard --sim` process, a real websocket client
 on 127.0.0.1. What the in-process tests show through Starlette's TestClient, checked again through
 uvicorn, the websocket protocol and TCP: the emergency stop behind hundreds of queued commands,
-every malformed message answered on an open connection, and no reply ever dropped."""
+every malformed message answered on an open connection (an oversized one too), and no reply ever dropped."""
 
 from __future__ import annotations
 
@@ -14,8 +14,11 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
+from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 from websockets.typing import Origin
+
+from nurimc.dashboard.server import MESSAGE_LIMIT, TRANSPORT_LIMIT
 
 LISTEN = ("--listen", "127.0.0.1:0")  # a free port on loopback
 SIM_MOTORS = {1: 115200, 2: 115200, 3: 57600}  # nurimc.dashboard.simulated.SIM_MOTORS
@@ -122,6 +125,59 @@ def test_every_malformed_message_gets_an_error_reply_on_an_open_connection(serve
             assert reply["ok"] is False and reply["error"], shown
             assert "internal error" not in reply["error"], (shown, reply["error"])
         assert ask(ws, "read_settings", id=1)["ok"], "the same connection still works"
+
+
+MIB = 1 << 20
+OVERSIZED: list[tuple[str | bytes, int]] = [  # (message, its size in bytes as sent)
+    ('{"op":"read_settings","id":1,"pad":"' + "x" * (2 * MIB) + '"}', 2 * MIB + 38),
+    (bytes(range(256)) * (2 * MIB // 256), 2 * MIB),
+    ("é" * (MIB // 2 + 1), MIB + 2),  # 524,289 characters, 1,048,578 bytes in UTF-8
+    (b"\x00" * (TRANSPORT_LIMIT - MIB), TRANSPORT_LIMIT - MIB),  # 15 MiB: still an error reply
+]
+
+
+@pytest.mark.parametrize(
+    ("message", "size"), OVERSIZED, ids=["2MiB-text", "2MiB-binary", "1MiB+2-utf8", "15MiB-binary"]
+)
+def test_a_message_over_1_mib_gets_an_error_reply_and_the_connection_stays_open(
+    server: str, message: str | bytes, size: int
+) -> None:
+    with open_socket(server) as ws:
+        for _ in range(2):  # twice on one connection: the first did not leave it half-read
+            ws.send(message)
+            (reply,) = replies(ws, 1)
+            assert reply == {
+                "type": "reply",
+                "req": None,
+                "ok": False,
+                "result": None,
+                "error": f"message of {size} bytes is over the 1 MiB limit",
+            }
+        answered = ask(ws, "read_settings", id=1)
+        assert answered["ok"], answered
+        assert answered["result"]["settings"]["control"] in ("on", "off")
+
+
+def test_a_message_of_exactly_1_mib_is_read(server: str) -> None:
+    head, tail = '{"op":"watch","req":"edge","ids":[1],"pad":"', '"}'
+    message = head + "x" * (MESSAGE_LIMIT - len(head) - len(tail)) + tail
+    assert len(message.encode()) == MESSAGE_LIMIT
+    with open_socket(server) as ws:
+        ws.send(message)
+        (reply,) = replies(ws, 1)
+        assert reply["req"] == "edge", "read and decoded: the request number came back"
+        assert "limit" not in (reply["error"] or ""), reply
+
+
+def test_a_message_over_the_16_mib_hard_cap_closes_the_connection_with_1009(server: str) -> None:
+    with open_socket(server) as ws:
+        with pytest.raises(ConnectionClosed):
+            ws.send(b"\x00" * (TRANSPORT_LIMIT + 1))
+            while True:
+                ws.recv(timeout=30)
+        assert ws.protocol.close_rcvd is not None and ws.protocol.close_rcvd.code == 1009, ws.protocol.close_rcvd
+    with open_socket(server) as again:
+        assert ask(again, "read_settings", id=1)["ok"], "the server itself is unharmed"
 
 
 def test_3000_requests_get_3000_replies_each_done_or_busy(server: str) -> None:

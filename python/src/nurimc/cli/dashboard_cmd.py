@@ -36,7 +36,7 @@ def dashboard(
     from ..dashboard.security import ListenError, SecurityPolicy, parse_listen
 
     o = options(ctx)
-    from ..dashboard.server import MISSING_ASSETS, STATIC, UPLOT
+    from ..dashboard.server import MISSING_ASSETS, STATIC, UPLOT, uvicorn_options
 
     if not (STATIC / UPLOT).is_file():
         fail(MISSING_ASSETS, EXIT_USAGE)
@@ -74,7 +74,7 @@ def dashboard(
     config = DashboardConfig(
         bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, port=port_name, on_ready=ready
     )
-    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", ws_max_size=1 << 20))
+    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **uvicorn_options()))
     try:
         server.run(sockets=[sock])
     finally:

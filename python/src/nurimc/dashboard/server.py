@@ -39,6 +39,12 @@ TICK_SECONDS = 1.0  # a heartbeat to every page: a page that hears nothing for 3
 LIVE_QUEUE = 256  # live-data messages waiting for a slow page before the oldest are dropped
 REPLY_BACKLOG = 1024  # replies and events waiting for a page before its messages stop being read
 MAX_NESTING = 32  # deeper JSON is refused before it is decoded
+# Two limits on one message (docs/dashboard.md, "Malformed messages"). Up to MESSAGE_LIMIT the console
+# reads it; above, up to TRANSPORT_LIMIT, the websocket layer still assembles it (bounded memory) and the
+# console answers an error reply on the open connection; above TRANSPORT_LIMIT the websocket layer
+# itself closes the connection with 1009 "message too big", as a last resort against unbounded memory.
+MESSAGE_LIMIT = 1 << 20  # 1 MiB
+TRANSPORT_LIMIT = 16 << 20  # 16 MiB: uvicorn's ws_max_size, websockets' max_size (whole message, all fragments)
 LIVE_EVENTS = {"samples", "frames", "tick"}
 POLICY_VIOLATION = 1008
 
@@ -144,6 +150,29 @@ def _reject_constant(name: str) -> Any:
 def decode(text: str) -> Any:
     """JSON as the page must send it: no NaN/Infinity, bounded nesting (RecursionError otherwise)."""
     return json.loads(text, parse_constant=_reject_constant)
+
+
+def uvicorn_options() -> dict[str, Any]:
+    """The websocket settings `uvicorn.Config` needs for the console's two message limits.
+
+    websockets' sans-I/O implementation ("websockets-sansio", uvicorn >= 0.35) counts a message's
+    size across all its fragments (and after decompression), refuses it from the frame header before
+    reading the payload, and pauses reading while an assembled message waits for the app: one
+    connection holds at most one message of TRANSPORT_LIMIT. Older uvicorn gets the legacy
+    implementation with a receive queue of one message, the same bound."""
+    from uvicorn.config import WS_PROTOCOLS
+
+    ws = "websockets-sansio" if "websockets-sansio" in WS_PROTOCOLS else "websockets"
+    return {"ws": ws, "ws_max_size": TRANSPORT_LIMIT, "ws_max_queue": 1}
+
+
+def message_size(event: Any) -> int:
+    """Bytes of a received message as sent (text counted in UTF-8)."""
+    data = event.get("bytes")
+    if data is not None:
+        return len(data)
+    text: str = event.get("text") or ""
+    return len(text) if text.isascii() else len(text.encode("utf-8", "surrogatepass"))
 
 
 def create_app(config: DashboardConfig) -> Starlette:
@@ -314,6 +343,10 @@ async def _receive_loop(
         event = await websocket.receive()
         if event["type"] == "websocket.disconnect":
             raise WebSocketDisconnect(event.get("code", 1000))
+        size = message_size(event)
+        if size > MESSAGE_LIMIT:  # read no further; the connection stays open
+            box.put(_reply(None, None, f"message of {size} bytes is over the {MESSAGE_LIMIT >> 20} MiB limit"))
+            continue
         text = event.get("text")
         if text is None:
             box.put(_reply(None, None, "binary messages are not understood: send JSON text"))
