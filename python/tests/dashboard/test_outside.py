@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import re
+import socket
 import subprocess
 import sys
 import time
@@ -49,8 +50,15 @@ def server() -> Iterator[str]:
         child.wait(timeout=10)
 
 
-def open_socket(host: str) -> ClientConnection:
-    return connect(f"ws://{host}/ws", origin=Origin(f"http://{host}"), max_queue=None, max_size=None)
+def open_socket(host: str, *, compress: bool = True) -> ClientConnection:
+    """A client as a browser is: permessage-deflate offered (and taken by the server) unless compress=False."""
+    return connect(
+        f"ws://{host}/ws",
+        origin=Origin(f"http://{host}"),
+        max_queue=None,
+        max_size=None,
+        compression="deflate" if compress else None,
+    )
 
 
 def replies(ws: ClientConnection, count: int, timeout: float = 30.0) -> list[dict[str, Any]]:
@@ -158,6 +166,19 @@ def test_a_message_over_1_mib_gets_an_error_reply_and_the_connection_stays_open(
         assert answered["result"]["settings"]["control"] in ("on", "off")
 
 
+def test_an_oversized_message_in_fragments_uncompressed_gets_an_error_reply(server: str) -> None:
+    """64 KiB frames on the wire as they are: the size counted over the fragments, not per frame."""
+    piece = bytes(range(256)) * 256
+    with open_socket(server, compress=False) as ws:
+        ws.send([piece] * 32)
+        (reply,) = replies(ws, 1)
+        assert reply["error"] == f"message of {32 * len(piece)} bytes is over the 1 MiB limit"
+        ws.send(["x" * (MIB // 2), "y" * (MIB // 2), "z"])
+        (reply,) = replies(ws, 1)
+        assert reply["error"] == f"message of {MIB + 1} bytes is over the 1 MiB limit"
+        assert ask(ws, "read_settings", id=1)["ok"]
+
+
 def test_a_message_of_exactly_1_mib_is_read(server: str) -> None:
     head, tail = '{"op":"watch","req":"edge","ids":[1],"pad":"', '"}'
     message = head + "x" * (MESSAGE_LIMIT - len(head) - len(tail)) + tail
@@ -169,7 +190,8 @@ def test_a_message_of_exactly_1_mib_is_read(server: str) -> None:
         assert "limit" not in (reply["error"] or ""), reply
 
 
-def test_a_message_over_the_16_mib_hard_cap_closes_the_connection_with_1009(server: str) -> None:
+def test_a_deflated_message_over_the_16_mib_hard_cap_closes_the_connection_with_1009(server: str) -> None:
+    """16 MiB + 1 zero bytes, a few kilobytes on the wire: the cap counts the message decompressed."""
     with open_socket(server) as ws:
         with pytest.raises(ConnectionClosed):
             ws.send(b"\x00" * (TRANSPORT_LIMIT + 1))
@@ -178,6 +200,91 @@ def test_a_message_over_the_16_mib_hard_cap_closes_the_connection_with_1009(serv
         assert ws.protocol.close_rcvd is not None and ws.protocol.close_rcvd.code == 1009, ws.protocol.close_rcvd
     with open_socket(server) as again:
         assert ask(again, "read_settings", id=1)["ok"], "the server itself is unharmed"
+
+
+@pytest.mark.parametrize("fragmented", [False, True], ids=["one-frame", "after-250-fragments-of-64KiB"])
+def test_a_frame_header_over_the_hard_cap_is_refused_before_its_payload(server: str, fragmented: bool) -> None:
+    """Only the header of the frame that would cross 16 MiB is sent, never its payload: the server
+    closes with 1009 all the same, so it did not wait to buffer the payload. (A client that does
+    send the payload may see the connection reset instead: the server closes with it unread.)"""
+    with RawWebSocket(server) as raw:
+        if fragmented:
+            piece = b"\x00" * (1 << 16)
+            raw.send_frame(0x2, False, len(piece))
+            raw.sock.sendall(piece)
+            for _ in range(249):
+                raw.send_frame(0x0, False, len(piece))
+                raw.sock.sendall(piece)
+            raw.send_frame(0x0, True, TRANSPORT_LIMIT - 250 * len(piece) + 1)  # one byte too many, in all
+        else:
+            raw.send_frame(0x2, True, TRANSPORT_LIMIT + 1)
+        assert raw.close_code() == 1009
+    with open_socket(server) as again:
+        assert ask(again, "read_settings", id=1)["ok"], "the server itself is unharmed"
+
+
+class RawWebSocket:
+    """A websocket client by hand, to send a frame's header without its payload."""
+
+    def __init__(self, host: str) -> None:
+        name, port = host.rsplit(":", 1)
+        self.sock = socket.create_connection((name, int(port)), timeout=30)
+        self.sock.sendall(
+            f"GET /ws HTTP/1.1\r\nHost: {host}\r\nOrigin: http://{host}\r\nUpgrade: websocket\r\n"
+            "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+            "Sec-WebSocket-Version: 13\r\n\r\n".encode()
+        )
+        self.buffer = bytearray()
+        self._need_until(b"\r\n\r\n")
+        head, _, rest = bytes(self.buffer).partition(b"\r\n\r\n")
+        assert head.startswith(b"HTTP/1.1 101"), head
+        self.buffer = bytearray(rest)
+
+    def __enter__(self) -> RawWebSocket:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.sock.close()
+
+    def send_frame(self, opcode: int, fin: bool, length: int) -> None:
+        """The header of one masked client frame (mask 0: the payload goes as it is)."""
+        first = bytes([(0x80 if fin else 0) | opcode])
+        if length < 126:
+            size = bytes([0x80 | length])
+        elif length < 1 << 16:
+            size = bytes([0x80 | 126]) + length.to_bytes(2, "big")
+        else:
+            size = bytes([0x80 | 127]) + length.to_bytes(8, "big")
+        self.sock.sendall(first + size + b"\x00" * 4)
+
+    def close_code(self) -> int:
+        """Skip the server's messages up to its close frame; the code in it."""
+        while True:
+            self._need(2)
+            opcode, length, offset = self.buffer[0] & 0x0F, self.buffer[1] & 0x7F, 2
+            if length >= 126:
+                offset = 4 if length == 126 else 10
+                self._need(offset)
+                length = int.from_bytes(self.buffer[2:offset], "big")
+            self._need(offset + length)
+            payload = bytes(self.buffer[offset : offset + length])
+            del self.buffer[: offset + length]
+            if opcode == 0x8:
+                return int.from_bytes(payload[:2], "big")
+
+    def _need(self, count: int) -> None:
+        while len(self.buffer) < count:
+            self._read()
+
+    def _need_until(self, marker: bytes) -> None:
+        while marker not in self.buffer:
+            self._read()
+
+    def _read(self) -> None:
+        chunk = self.sock.recv(1 << 16)
+        if not chunk:
+            raise EOFError("the server closed the connection without a close frame")
+        self.buffer.extend(chunk)
 
 
 def test_3000_requests_get_3000_replies_each_done_or_busy(server: str) -> None:
