@@ -53,6 +53,27 @@ static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
     return (uint8_t)~sum;
 }
 
+/* nurimc_unpack_valid (codec.c) again, here so that take() has it inline: a frame whose checks
+   all passed -> *out. Fields are in wire order, big-endian, at their offsets in nurimc_message. */
+static void unpack(const uint8_t *frame, nurimc_message_type type, nurimc_message *out) {
+    const nurimc_message_spec *spec = &nurimc_message_specs[type];
+    const nurimc_field_spec *f = spec->fields; /* NULL when there are none */
+    const uint8_t *at = frame + DATA_OFFSET;
+    unsigned i, count = spec->field_count;
+    memset(out, 0, sizeof *out);
+    out->type = type;
+    out->id = frame[ID_OFFSET];
+    for (i = 0; i < count; i++, f++) {
+        unsigned char *to = (unsigned char *)out + f->offset; /* a uint8_t or uint16_t member */
+        if (f->width == 2) {
+            *(uint16_t *)(void *)to = (uint16_t)((at[0] << 8) | at[1]);
+            at += 2;
+        } else {
+            *to = *at++;
+        }
+    }
+}
+
 /* Judge the candidate at b[0] (b[0..1] = FF FE, `avail` bytes present). Counts rejections. */
 static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t avail, nurimc_message *out) {
     uint8_t size;
@@ -128,10 +149,8 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
         p->state = RESCAN;
         p->next = 0;
     } else {
-        unsigned held = p->length, sum = 0, i;
-        for (i = ID_OFFSET; i < held; i++) sum += buf[i];
+        unsigned held = p->length;
         p->state = CANDIDATE;
-        p->sum = (uint8_t)sum;
         p->next = (uint8_t)(held < 2 ? 0u : held < 6 ? MODE_OFFSET : buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD - 1u);
     }
     return found;
@@ -166,25 +185,21 @@ static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message
 static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_message *out) {
     p->buf[n] = byte;
     p->length = (uint8_t)(n + 1);
-    if (((p->sum + byte) & 0xFFu) != 0xFFu) return scan(p, 0, out); /* checksum = ~(sum of the rest) */
+    if (p->buf[CHECKSUM_OFFSET] != frame_checksum(p->buf, n + 1)) return scan(p, 0, out);
     p->length = 0;
     p->next = 0;
     p->stats.frames++;
-    nurimc_unpack_valid(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
+    unpack(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
     return 1;
 }
 
-int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+int nurimc_parser_push_checked(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+    return nurimc_parser_push(parser, byte, out);
+}
+
+int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
     nurimc_parser *p = parser;
-    unsigned n;
-    if (p == NULL || out == NULL) return 0;
-    n = p->length;
-    if (n < p->next) { /* the ID, size, checksum or a data byte of a candidate: nothing to check yet */
-        p->buf[n] = byte;
-        p->length = (uint8_t)(n + 1);
-        p->sum = (uint8_t)(p->sum + byte);
-        return 0;
-    }
+    unsigned n = p->length; /* n >= p->next: the inline part stored the bytes below it */
     if (n == 0) { /* (never so in state RESCAN, which holds at least two bytes) */
         if (byte == NURIMC_HEADER_0) {
             p->buf[0] = byte;
@@ -199,7 +214,6 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
             p->buf[1] = byte;
             p->length = 2;
             p->next = MODE_OFFSET; /* the ID, size and checksum bytes need no look yet */
-            p->sum = 0;
         } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
             p->stats.dropped_bytes++;
         } else {
@@ -217,7 +231,6 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
         if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
         p->buf[MODE_OFFSET] = byte;
         p->length = DATA_OFFSET;
-        p->sum = (uint8_t)(p->sum + byte);
         p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
         return 0;
     }
