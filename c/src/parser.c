@@ -200,7 +200,7 @@ int nurimc_parser_push_checked(nurimc_parser *parser, uint8_t byte, nurimc_messa
 int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
     nurimc_parser *p = parser;
     unsigned n = p->length; /* n >= p->next: the inline part stored the bytes below it */
-    if (n == 0) { /* (never so in state RESCAN, which holds at least two bytes) */
+    if (n == 0) {           /* (never so in state RESCAN, which holds at least two bytes) */
         if (byte == NURIMC_HEADER_0) {
             p->buf[0] = byte;
             p->length = 1;
@@ -213,7 +213,7 @@ int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_mes
         if (byte == NURIMC_HEADER_1) {
             p->buf[1] = byte;
             p->length = 2;
-            p->next = MODE_OFFSET; /* the ID, size and checksum bytes need no look yet */
+            p->next = MODE_OFFSET;            /* the ID, size and checksum bytes need no look yet */
         } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
             p->stats.dropped_bytes++;
         } else {
