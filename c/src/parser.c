@@ -184,8 +184,10 @@ static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message
    from the ID on, checksum byte included): take the frame or re-scan. */
 static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_message *out) {
     p->buf[n] = byte;
-    p->length = (uint8_t)(n + 1);
-    if (p->buf[CHECKSUM_OFFSET] != frame_checksum(p->buf, n + 1)) return scan(p, 0, out);
+    if (p->buf[CHECKSUM_OFFSET] != frame_checksum(p->buf, n + 1)) {
+        p->length = (uint8_t)(n + 1);
+        return scan(p, 0, out);
+    }
     p->length = 0;
     p->next = 0;
     p->stats.frames++;
@@ -200,20 +202,38 @@ int nurimc_parser_push_checked(nurimc_parser *parser, uint8_t byte, nurimc_messa
 int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
     nurimc_parser *p = parser;
     unsigned n = p->length; /* n >= p->next: the inline part stored the bytes below it */
-    if (n == 0) {           /* (never so in state RESCAN, which holds at least two bytes) */
+    if (n == p->next) {     /* state CANDIDATE (RESCAN holds two or more bytes, next 0): the byte to look at */
+        if (n > MODE_OFFSET) return take(p, n, byte, out); /* the candidate's last byte */
+        if (n == MODE_OFFSET) {
+            uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
+            unsigned size = p->buf[SIZE_OFFSET];
+            /* FE, the size byte (each mode has one size) and the mode together; the scan counts
+               which check failed */
+            if (p->buf[1] != NURIMC_HEADER_1 || plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) {
+                return push_and_scan(p, byte, out);
+            }
+            if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
+            p->buf[MODE_OFFSET] = byte;
+            p->length = DATA_OFFSET;
+            p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
+            return 0;
+        }
+        /* n == 0: nothing held */
         if (byte == NURIMC_HEADER_0) {
             p->buf[0] = byte;
             p->length = 1;
+            p->next = MODE_OFFSET; /* FE, ID, size and checksum: stored, judged with the mode byte */
         } else {
             p->stats.dropped_bytes++;
         }
         return 0;
     }
-    if (n == 1) { /* buf holds FF (in state RESCAN too) */
+    if (n == 1) { /* a lone FF left by a scan (next 0) */
         if (byte == NURIMC_HEADER_1) {
             p->buf[1] = byte;
             p->length = 2;
-            p->next = MODE_OFFSET;            /* the ID, size and checksum bytes need no look yet */
+            p->next = MODE_OFFSET; /* the ID, size and checksum bytes need no look yet */
+            p->state = CANDIDATE;
         } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
             p->stats.dropped_bytes++;
         } else {
@@ -222,19 +242,7 @@ int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_mes
         }
         return 0;
     }
-    if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
-    if (n == MODE_OFFSET) {
-        uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
-        unsigned size = p->buf[SIZE_OFFSET];
-        /* a bad size byte fails here too (no mode has it); the scan counts which check failed */
-        if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) return push_and_scan(p, byte, out);
-        if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
-        p->buf[MODE_OFFSET] = byte;
-        p->length = DATA_OFFSET;
-        p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
-        return 0;
-    }
-    return take(p, n, byte, out);
+    return push_and_scan(p, byte, out); /* state RESCAN */
 }
 
 size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,
