@@ -196,7 +196,8 @@ size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t len
 int nurimc_parser_finish(nurimc_parser *parser, nurimc_message *out);
 /** Forget held bytes (counted as dropped), e.g. before sending a new request. */
 void nurimc_parser_clear(nurimc_parser *parser);
-/** Bytes held because they may begin a frame. */
+/** Bytes held because they may begin a frame (a candidate's FE and size byte are judged
+    with its mode byte: up to five held bytes may turn out not to). */
 size_t nurimc_parser_pending(const nurimc_parser *parser);
 
 #ifdef __cplusplus

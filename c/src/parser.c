@@ -1,23 +1,25 @@
 /*
  * The stream parser. The rule (conformance/README.md): where a whole valid frame starts,
  * take it; otherwise drop one byte and look again from the next. Candidates are rejected
- * as soon as their mode byte arrives if their size byte or mode is wrong, so the buffer holds
- * at most one frame.
+ * as soon as their mode byte arrives if their FE, size byte or mode is wrong, so the buffer
+ * holds at most one frame.
  *
  * Two paths, one rule (docs/performance.md):
  * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), `next` says
- *   which byte next needs a look. Bytes before it (ID, size, checksum, data) are only stored
- *   and summed; the others get one check each: FF, FE, the mode byte (which checks the size
- *   byte with it: each mode has one size) and the candidate's last byte (the checksum against
- *   the running sum, then the unpack). O(1) per byte, no re-scan, no copy.
+ *   which byte next needs a look. Bytes before it (FE, ID, size, checksum, data) are only
+ *   stored, by the static inline nurimc_parser_push in nurimc.h; the others come to
+ *   nurimc_parser_push_boundary_ and get one check each: FF, the mode byte (which checks FE
+ *   and the size byte with it: each mode has one size) and the candidate's last byte (the
+ *   checksum over the held frame, then the unpack). O(1) per byte, no re-scan, no copy.
  *   nurimc_parser_feed judges whole candidates in place in the caller's bytes, no copy either.
  * - the re-scan (scan()): whenever a held candidate is rejected, or a call has taken a frame
  *   and kept bytes after it, the general scan judges the held bytes from the start, as the rule
  *   says; it is rare (noise, corruption) and bounded by the 12-byte buffer.
- * Checking the size byte at the mode byte, not when it arrives, delays no frame: a frame inside
- * a rejected candidate starts at its ID byte or later, so it ends after the mode byte. Only the
- * moment a bad size is counted (and its bytes dropped) moves, by up to two bytes; frames, the
- * byte that completes each, and the counters after nurimc_parser_finish are the same.
+ * Checking FE and the size byte at the mode byte, not when they arrive, delays no frame: a
+ * frame inside a rejected candidate starts at its second byte or later, so it ends after the
+ * mode byte. Only the moment a missing FE or a bad size is counted (and its bytes dropped)
+ * moves, by up to four bytes; frames, the byte that completes each, and the counters after
+ * nurimc_parser_finish are the same.
  */
 #include "nurimc.h"
 
@@ -180,8 +182,7 @@ static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message
     return scan(p, 0, out);
 }
 
-/* The candidate's last byte (its checks so far all passed; p->sum holds the sum of its bytes
-   from the ID on, checksum byte included): take the frame or re-scan. */
+/* The candidate's last byte at index n (its FE, size and mode passed): take the frame or re-scan. */
 static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_message *out) {
     p->buf[n] = byte;
     if (p->buf[CHECKSUM_OFFSET] != frame_checksum(p->buf, n + 1)) {
