@@ -25,8 +25,6 @@
 
 #include <string.h>
 
-void nurimc_unpack_valid(const uint8_t *frame, nurimc_message_type type, nurimc_message *out);
-
 enum verdict { WAIT, REJECT, VALID };
 
 /* parser->state: buf[0..length) is one undecided candidate, a lone FF or nothing (the fast
@@ -55,8 +53,8 @@ static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
     return (uint8_t)~sum;
 }
 
-/* nurimc_unpack_valid (codec.c) again, here so that take() has it inline: a frame whose checks
-   all passed -> *out. Fields are in wire order, big-endian, at their offsets in nurimc_message. */
+/* nurimc_unpack_valid (codec.c) again, here so that take() and judge() have it inline: a frame
+   whose checks all passed -> *out. Fields are in wire order, big-endian, at their offsets. */
 static void unpack(const uint8_t *frame, nurimc_message_type type, nurimc_message *out) {
     const nurimc_message_spec *spec = &nurimc_message_specs[type];
     const nurimc_field_spec *f = spec->fields; /* NULL when there are none */
@@ -101,7 +99,7 @@ static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t a
         stats->bad_checksum++;
         return REJECT;
     }
-    nurimc_unpack_valid(b, (nurimc_message_type)(plus_one - 1), out);
+    unpack(b, (nurimc_message_type)(plus_one - 1), out);
     return VALID;
 }
 
