@@ -97,10 +97,27 @@ static NOINLINE size_t bench_feed(const stream *s) {
 static NOINLINE size_t bench_push(const stream *s) {
     nurimc_parser parser;
     nurimc_message msg;
-    size_t at, frames = 0;
+    const uint8_t *bytes = s->bytes;
+    size_t length = s->length, at, frames = 0;
     nurimc_parser_init(&parser);
-    for (at = 0; at < s->length; at++) {
-        if (nurimc_parser_push(&parser, s->bytes[at], &msg)) {
+    for (at = 0; at < length; at++) {
+        if (nurimc_parser_push(&parser, bytes[at], &msg)) {
+            frames++;
+            sink += msg.id;
+        }
+    }
+    return frames;
+}
+
+/* The same through the out-of-line nurimc_parser_push_checked: a call per byte. */
+static NOINLINE size_t bench_push_checked(const stream *s) {
+    nurimc_parser parser;
+    nurimc_message msg;
+    const uint8_t *bytes = s->bytes;
+    size_t length = s->length, at, frames = 0;
+    nurimc_parser_init(&parser);
+    for (at = 0; at < length; at++) {
+        if (nurimc_parser_push_checked(&parser, bytes[at], &msg)) {
             frames++;
             sink += msg.id;
         }
@@ -150,9 +167,10 @@ static NOINLINE int naive_push(naive_parser *p, uint8_t byte, nurimc_message *ou
 static NOINLINE size_t bench_naive_push(const stream *s) {
     naive_parser parser = {{0}, 0, 0};
     nurimc_message msg;
-    size_t at, frames = 0;
-    for (at = 0; at < s->length; at++) {
-        if (naive_push(&parser, s->bytes[at], &msg)) {
+    const uint8_t *bytes = s->bytes;
+    size_t length = s->length, at, frames = 0;
+    for (at = 0; at < length; at++) {
+        if (naive_push(&parser, bytes[at], &msg)) {
             frames++;
             sink += msg.id;
         }
@@ -175,10 +193,11 @@ static NOINLINE int floor_push(floor_state *f, uint8_t byte, nurimc_message *out
 static NOINLINE size_t bench_push_floor(const stream *s) {
     floor_state state = {0};
     nurimc_message msg;
-    size_t at, frames = 0;
+    const uint8_t *bytes = s->bytes;
+    size_t length = s->length, at, frames = 0;
     memset(&msg, 0, sizeof msg);
-    for (at = 0; at < s->length; at++) {
-        if (floor_push(&state, s->bytes[at], &msg)) {
+    for (at = 0; at < length; at++) {
+        if (floor_push(&state, bytes[at], &msg)) {
             frames++;
             sink += msg.id;
         }
@@ -262,6 +281,7 @@ int main(int argc, char **argv) {
         {"parse_feed_frames_per_s", bench_feed, 0, 0},
         {"baseline_memchr_feed_frames_per_s", bench_memchr_feed, 0, 0},
         {"parse_push_frames_per_s", bench_push, 0, 0},
+        {"parse_push_checked_frames_per_s", bench_push_checked, 0, 0},
         {"baseline_naive_push_frames_per_s", bench_naive_push, 0, 0},
         {"push_loop_floor_frames_per_s", bench_push_floor, 0, 0},
     };

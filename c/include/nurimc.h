@@ -151,14 +151,38 @@ typedef struct nurimc_parser {
     uint8_t buf[NURIMC_MAX_FRAME_LENGTH];
     uint8_t length;
     uint8_t next;  /**< internal: bytes at indexes below this extend the held candidate unchecked */
-    uint8_t sum;   /**< internal: the held candidate's bytes from its ID on, summed */
     uint8_t state; /**< internal: 0 = buf holds one undecided candidate (or nothing); 1 = re-scan it */
     nurimc_parser_stats stats;
 } nurimc_parser;
 
 void nurimc_parser_init(nurimc_parser *parser);
-/** Add one byte; returns 1 and fills *out when that byte completes a frame, else 0. */
-int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out);
+/**
+ * Add one byte; returns 1 and fills *out when that byte completes a frame, else 0 (also when
+ * parser or out is NULL: the byte is then ignored). The same as nurimc_parser_push, out of line:
+ * one exported symbol, e.g. for a function pointer or a foreign-function binding.
+ */
+int nurimc_parser_push_checked(nurimc_parser *parser, uint8_t byte, nurimc_message *out);
+/** Internal, for nurimc_parser_push only: a byte that needs a look (parser and out not NULL). */
+int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_message *out);
+/**
+ * Add one byte; returns 1 and fills *out when that byte completes a frame, else 0 (also when
+ * parser or out is NULL: the byte is then ignored). Inline: a byte inside a candidate frame
+ * that needs no check yet (its ID, size, checksum and data bytes but the last) is only stored
+ * here; every other byte (FF, FE, the mode byte, the last byte, noise) is judged out of line
+ * (docs/performance.md). The NULL checks cost nothing when the compiler sees the pointers are
+ * addresses of objects (&parser, &msg).
+ */
+static inline int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+    unsigned n;
+    if (parser == NULL || out == NULL) return 0;
+    n = parser->length;
+    if (n < parser->next) { /* the ID, size, checksum or a data byte but the last: no check yet */
+        parser->buf[n] = byte;
+        parser->length = (uint8_t)(n + 1u);
+        return 0;
+    }
+    return nurimc_parser_push_boundary_(parser, byte, out);
+}
 /** Called by nurimc_parser_feed for every frame, in order. */
 typedef void (*nurimc_frame_callback)(void *context, const nurimc_message *msg);
 /** Add `length` bytes; calls `callback` for each frame they complete. Returns the frame count. */
@@ -172,7 +196,8 @@ size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t len
 int nurimc_parser_finish(nurimc_parser *parser, nurimc_message *out);
 /** Forget held bytes (counted as dropped), e.g. before sending a new request. */
 void nurimc_parser_clear(nurimc_parser *parser);
-/** Bytes held because they may begin a frame. */
+/** Bytes held because they may begin a frame (a candidate's FE and size byte are judged
+    with its mode byte: up to five held bytes may turn out not to). */
 size_t nurimc_parser_pending(const nurimc_parser *parser);
 
 #ifdef __cplusplus

@@ -1,29 +1,29 @@
 /*
  * The stream parser. The rule (conformance/README.md): where a whole valid frame starts,
  * take it; otherwise drop one byte and look again from the next. Candidates are rejected
- * as soon as their mode byte arrives if their size byte or mode is wrong, so the buffer holds
- * at most one frame.
+ * as soon as their mode byte arrives if their FE, size byte or mode is wrong, so the buffer
+ * holds at most one frame.
  *
  * Two paths, one rule (docs/performance.md):
  * - the fast path: while buf[0] is one undecided candidate (state CANDIDATE), `next` says
- *   which byte next needs a look. Bytes before it (ID, size, checksum, data) are only stored
- *   and summed; the others get one check each: FF, FE, the mode byte (which checks the size
- *   byte with it: each mode has one size) and the candidate's last byte (the checksum against
- *   the running sum, then the unpack). O(1) per byte, no re-scan, no copy.
+ *   which byte next needs a look. Bytes before it (FE, ID, size, checksum, data) are only
+ *   stored, by the static inline nurimc_parser_push in nurimc.h; the others come to
+ *   nurimc_parser_push_boundary_ and get one check each: FF, the mode byte (which checks FE
+ *   and the size byte with it: each mode has one size) and the candidate's last byte (the
+ *   checksum over the held frame, then the unpack). O(1) per byte, no re-scan, no copy.
  *   nurimc_parser_feed judges whole candidates in place in the caller's bytes, no copy either.
  * - the re-scan (scan()): whenever a held candidate is rejected, or a call has taken a frame
  *   and kept bytes after it, the general scan judges the held bytes from the start, as the rule
  *   says; it is rare (noise, corruption) and bounded by the 12-byte buffer.
- * Checking the size byte at the mode byte, not when it arrives, delays no frame: a frame inside
- * a rejected candidate starts at its ID byte or later, so it ends after the mode byte. Only the
- * moment a bad size is counted (and its bytes dropped) moves, by up to two bytes; frames, the
- * byte that completes each, and the counters after nurimc_parser_finish are the same.
+ * Checking FE and the size byte at the mode byte, not when they arrive, delays no frame: a
+ * frame inside a rejected candidate starts at its second byte or later, so it ends after the
+ * mode byte. Only the moment a missing FE or a bad size is counted (and its bytes dropped)
+ * moves, by up to four bytes; frames, the byte that completes each, and the counters after
+ * nurimc_parser_finish are the same.
  */
 #include "nurimc.h"
 
 #include <string.h>
-
-void nurimc_unpack_valid(const uint8_t *frame, nurimc_message_type type, nurimc_message *out);
 
 enum verdict { WAIT, REJECT, VALID };
 
@@ -53,6 +53,27 @@ static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
     return (uint8_t)~sum;
 }
 
+/* nurimc_unpack_valid (codec.c) again, here so that take() and judge() have it inline: a frame
+   whose checks all passed -> *out. Fields are in wire order, big-endian, at their offsets. */
+static void unpack(const uint8_t *frame, nurimc_message_type type, nurimc_message *out) {
+    const nurimc_message_spec *spec = &nurimc_message_specs[type];
+    const nurimc_field_spec *f = spec->fields; /* NULL when there are none */
+    const uint8_t *at = frame + DATA_OFFSET;
+    unsigned i, count = spec->field_count;
+    memset(out, 0, sizeof *out);
+    out->type = type;
+    out->id = frame[ID_OFFSET];
+    for (i = 0; i < count; i++, f++) {
+        unsigned char *to = (unsigned char *)out + f->offset; /* a uint8_t or uint16_t member */
+        if (f->width == 2) {
+            *(uint16_t *)(void *)to = (uint16_t)((at[0] << 8) | at[1]);
+            at += 2;
+        } else {
+            *to = *at++;
+        }
+    }
+}
+
 /* Judge the candidate at b[0] (b[0..1] = FF FE, `avail` bytes present). Counts rejections. */
 static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t avail, nurimc_message *out) {
     uint8_t size;
@@ -78,7 +99,7 @@ static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t a
         stats->bad_checksum++;
         return REJECT;
     }
-    nurimc_unpack_valid(b, (nurimc_message_type)(plus_one - 1), out);
+    unpack(b, (nurimc_message_type)(plus_one - 1), out);
     return VALID;
 }
 
@@ -128,10 +149,8 @@ static int scan(nurimc_parser *p, int final, nurimc_message *out) {
         p->state = RESCAN;
         p->next = 0;
     } else {
-        unsigned held = p->length, sum = 0, i;
-        for (i = ID_OFFSET; i < held; i++) sum += buf[i];
+        unsigned held = p->length;
         p->state = CANDIDATE;
-        p->sum = (uint8_t)sum;
         p->next = (uint8_t)(held < 2 ? 0u : held < 6 ? MODE_OFFSET : buf[SIZE_OFFSET] + NURIMC_FRAME_OVERHEAD - 1u);
     }
     return found;
@@ -161,45 +180,59 @@ static NOINLINE int push_and_scan(nurimc_parser *p, uint8_t byte, nurimc_message
     return scan(p, 0, out);
 }
 
-/* The candidate's last byte (its checks so far all passed; p->sum holds the sum of its bytes
-   from the ID on, checksum byte included): take the frame or re-scan. */
+/* The candidate's last byte at index n (its FE, size and mode passed): take the frame or re-scan. */
 static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_message *out) {
     p->buf[n] = byte;
-    p->length = (uint8_t)(n + 1);
-    if (((p->sum + byte) & 0xFFu) != 0xFFu) return scan(p, 0, out); /* checksum = ~(sum of the rest) */
+    if (p->buf[CHECKSUM_OFFSET] != frame_checksum(p->buf, n + 1)) {
+        p->length = (uint8_t)(n + 1);
+        return scan(p, 0, out);
+    }
     p->length = 0;
     p->next = 0;
     p->stats.frames++;
-    nurimc_unpack_valid(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
+    unpack(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
     return 1;
 }
 
-int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+int nurimc_parser_push_checked(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
+    return nurimc_parser_push(parser, byte, out);
+}
+
+int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_message *out) {
     nurimc_parser *p = parser;
-    unsigned n;
-    if (p == NULL || out == NULL) return 0;
-    n = p->length;
-    if (n < p->next) { /* the ID, size, checksum or a data byte of a candidate: nothing to check yet */
-        p->buf[n] = byte;
-        p->length = (uint8_t)(n + 1);
-        p->sum = (uint8_t)(p->sum + byte);
-        return 0;
-    }
-    if (n == 0) { /* (never so in state RESCAN, which holds at least two bytes) */
+    unsigned n = p->length; /* n >= p->next: the inline part stored the bytes below it */
+    if (n == p->next) {     /* state CANDIDATE (RESCAN holds two or more bytes, next 0): the byte to look at */
+        if (n > MODE_OFFSET) return take(p, n, byte, out); /* the candidate's last byte */
+        if (n == MODE_OFFSET) {
+            uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
+            unsigned size = p->buf[SIZE_OFFSET];
+            /* FE, the size byte (each mode has one size) and the mode together; the scan counts
+               which check failed */
+            if (p->buf[1] != NURIMC_HEADER_1 || plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) {
+                return push_and_scan(p, byte, out);
+            }
+            if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
+            p->buf[MODE_OFFSET] = byte;
+            p->length = DATA_OFFSET;
+            p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
+            return 0;
+        }
+        /* n == 0: nothing held */
         if (byte == NURIMC_HEADER_0) {
             p->buf[0] = byte;
             p->length = 1;
+            p->next = MODE_OFFSET; /* FE, ID, size and checksum: stored, judged with the mode byte */
         } else {
             p->stats.dropped_bytes++;
         }
         return 0;
     }
-    if (n == 1) { /* buf holds FF (in state RESCAN too) */
+    if (n == 1) { /* a lone FF left by a scan (next 0) */
         if (byte == NURIMC_HEADER_1) {
             p->buf[1] = byte;
             p->length = 2;
             p->next = MODE_OFFSET; /* the ID, size and checksum bytes need no look yet */
-            p->sum = 0;
+            p->state = CANDIDATE;
         } else if (byte == NURIMC_HEADER_0) { /* FF FF: the first is dropped, the second may begin one */
             p->stats.dropped_bytes++;
         } else {
@@ -208,20 +241,7 @@ int nurimc_parser_push(nurimc_parser *parser, uint8_t byte, nurimc_message *out)
         }
         return 0;
     }
-    if (p->state != CANDIDATE) return push_and_scan(p, byte, out);
-    if (n == MODE_OFFSET) {
-        uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
-        unsigned size = p->buf[SIZE_OFFSET];
-        /* a bad size byte fails here too (no mode has it); the scan counts which check failed */
-        if (plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) return push_and_scan(p, byte, out);
-        if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */
-        p->buf[MODE_OFFSET] = byte;
-        p->length = DATA_OFFSET;
-        p->sum = (uint8_t)(p->sum + byte);
-        p->next = (uint8_t)(size + NURIMC_FRAME_OVERHEAD - 1u); /* only the last data byte needs a look */
-        return 0;
-    }
-    return take(p, n, byte, out);
+    return push_and_scan(p, byte, out); /* state RESCAN */
 }
 
 size_t nurimc_parser_feed(nurimc_parser *parser, const uint8_t *data, size_t length, nurimc_frame_callback callback,

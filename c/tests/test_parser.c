@@ -327,6 +327,70 @@ static void test_bad_size_judged_with_mode(void) {
     CHECK_EQ(nurimc_parser_pending(&parser), 0);
 }
 
+/* FE is judged with the mode byte, with the size byte: a candidate whose second byte is not FE
+   is dropped then, and a frame starting inside it is still returned at its last byte. */
+static void test_missing_fe_judged_with_mode(void) {
+    static const uint8_t ping[] = {0xFF, 0xFE, 0x00, 0x02, 0x5D, 0xA0};
+    static const uint8_t prefixes[][6] = {{0xFF},
+                                          {0xFF, 0x00},
+                                          {0xFF, 0xFF},
+                                          {0xFF, 0x00, 0xFF},
+                                          {0xFF, 0x01, 0x02, 0x03},
+                                          {0xFF, 0xFF, 0xFF},
+                                          {0xFF, 0xFD, 0xFF, 0xFF},
+                                          {0xFF, 0x00, 0x00, 0x02, 0x5D, 0xA0}}; /* the last: a ping with 00 for FE */
+    static const size_t prefix_lengths[] = {1, 2, 2, 3, 4, 3, 4, 6};
+    size_t k;
+    for (k = 0; k < sizeof prefix_lengths / sizeof prefix_lengths[0]; k++) {
+        uint8_t data[16];
+        size_t length = prefix_lengths[k] + sizeof ping, i;
+        nurimc_parser parser;
+        nurimc_message msg;
+        result r;
+        memcpy(data, prefixes[k], prefix_lengths[k]);
+        memcpy(data + prefix_lengths[k], ping, sizeof ping);
+        check_all_chunkings(data, length, &r);
+        CHECK_EQ(r.count, 1);
+        CHECK_EQ(r.frames[0].type, NURIMC_MSG_REQUEST_PING);
+        CHECK_EQ(r.stats.dropped_bytes, prefix_lengths[k]);
+        nurimc_parser_init(&parser);
+        for (i = 0; i + 1 < length; i++) CHECK_EQ(nurimc_parser_push(&parser, data[i], &msg), 0);
+        CHECK_EQ(nurimc_parser_push(&parser, data[length - 1], &msg), 1);
+        CHECK_EQ(msg.type, NURIMC_MSG_REQUEST_PING);
+        CHECK_EQ(nurimc_parser_pending(&parser), 0);
+        CHECK_EQ(parser.stats.dropped_bytes, prefix_lengths[k]);
+    }
+}
+
+/* nurimc_parser_push (inline) and nurimc_parser_push_checked (out of line) are one parser; a
+   NULL parser or out ignores the byte, in the inline fast path (mid-frame) too. */
+static void test_push_checked_and_null(void) {
+    static const uint8_t data[] = {0x00, 0xFF, 0xFE, 0x00, 0x02, 0x5D, 0xA0, 0xFF, 0xFE, 0x00,
+                                   0x77, 0x00, 0xA0, 0xFF, 0xFE, 0x00, 0x02, 0x5D, 0xA0};
+    nurimc_parser a, b;
+    nurimc_message ma, mb;
+    size_t i;
+    nurimc_parser *none = NULL;
+    nurimc_message *no_out = NULL;
+    nurimc_parser_init(&a);
+    nurimc_parser_init(&b);
+    for (i = 0; i < sizeof data; i++) {
+        int got_a = nurimc_parser_push(&a, data[i], &ma);
+        int got_b = nurimc_parser_push_checked(&b, data[i], &mb);
+        CHECK_EQ(got_a, got_b);
+        if (got_a && got_b) CHECK_EQ(ma.type, mb.type);
+        CHECK_EQ(nurimc_parser_pending(&a), nurimc_parser_pending(&b));
+        CHECK_EQ(nurimc_parser_push(&a, 0xFF, no_out), 0); /* ignored: held bytes unchanged */
+        CHECK_EQ(nurimc_parser_push_checked(&b, 0xFF, no_out), 0);
+        CHECK_EQ(nurimc_parser_pending(&a), nurimc_parser_pending(&b));
+        CHECK_EQ(nurimc_parser_push(none, data[i], &ma), 0);
+        CHECK_EQ(nurimc_parser_push_checked(none, data[i], &mb), 0);
+    }
+    CHECK_EQ(a.stats.frames, 2);
+    CHECK_EQ(memcmp(&a.stats, &b.stats, sizeof a.stats), 0);
+    CHECK_EQ(a.stats.dropped_bytes, 7);
+}
+
 int main(void) {
     test_noise_and_frames();
     test_bad_checksum_hides_no_frame();
@@ -337,5 +401,7 @@ int main(void) {
     test_matches_offline_rule();
     test_push_returns_at_last_byte();
     test_bad_size_judged_with_mode();
+    test_missing_fe_judged_with_mode();
+    test_push_checked_and_null();
     return check_report("test_parser");
 }
