@@ -208,3 +208,29 @@ def test_set_zero_makes_the_current_position_zero(console: TestClient) -> None:
         assert zeroed["ok"], zeroed
         assert abs(zeroed["result"]["device_position"]) < 1.0
         assert ask(ws, "release", id=1)["ok"]
+
+
+UNREADABLE = [
+    ("move", "degrees", '{"op": "move", "req": 7, "id": 1, "degrees": NaN, "rpm": 60}'),
+    ("move", "degrees", '{"op": "move", "req": 7, "id": 1, "degrees": -Infinity, "rpm": 60}'),
+    ("move", "degrees", '{"op": "move", "req": 7, "id": 1, "degrees": ' + "9" * 5000 + ', "rpm": 60}'),
+    ("run", "rpm", '{"op": "run", "req": 7, "id": 1, "rpm": Infinity}'),
+    ("move", "id", '{"op": "move", "req": 7, "id": ' + "1" * 4400 + ', "degrees": 1, "rpm": 60}'),
+    ("set", "ratio", '{"op": "set", "req": 7, "id": 1, "name": "ratio", "value": NaN}'),
+    ("restore", "position-kp", '{"op": "restore", "req": 7, "document": {"format": "nurimc-backup/1", '
+     '"motors": [{"id": 1, "settings": {"position-kp": Infinity}}]}}'),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("op", "field", "text"), UNREADABLE)
+def test_an_unreadable_number_is_answered_with_its_request_and_field(
+    console: TestClient, op: str, field: str, text: str
+) -> None:
+    # NaN, Infinity and integers past 4,300 digits are not JSON numbers the console reads; the
+    # request is still answered as itself (its req) and the error names the field
+    with console.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
+        ws.send_text(text)
+        (reply,) = replies(ws, 1)
+        assert reply["ok"] is False and reply["req"] == 7, reply
+        assert field in reply["error"] and "internal error" not in reply["error"], reply["error"]
+        assert len(reply["error"]) < 300 and "\n" not in reply["error"]

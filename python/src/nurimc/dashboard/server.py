@@ -143,13 +143,31 @@ class Hub:
             (box.put_live if live else box.put)(text)
 
 
-def _reject_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not a number this console accepts (give a finite number)")
+class UnreadableNumber:
+    """A JSON number the console does not read: NaN, Infinity, or an integer past Python's 4,300
+    digits. It stays in the message as a placeholder (never a number), so the request is still
+    answered with its own `req` and the field check names the field that holds it."""
+
+    __slots__ = ("text",)
+
+    def __init__(self, text: str) -> None:
+        self.text = text
+
+    def __repr__(self) -> str:
+        return self.text if len(self.text) <= 24 else f"{self.text[:12]}... ({len(self.text)} digits)"
+
+
+def _read_int(text: str) -> int | UnreadableNumber:
+    try:
+        return int(text)
+    except ValueError:  # over sys.get_int_max_str_digits()
+        return UnreadableNumber(text)
 
 
 def decode(text: str) -> Any:
-    """JSON as the page must send it: no NaN/Infinity, bounded nesting (RecursionError otherwise)."""
-    return json.loads(text, parse_constant=_reject_constant)
+    """JSON as the page must send it; NaN, Infinity and huge integers become UnreadableNumber
+    (refused by the field checks), nesting is bounded (RecursionError otherwise)."""
+    return json.loads(text, parse_constant=UnreadableNumber, parse_int=_read_int)
 
 
 def uvicorn_options() -> dict[str, Any]:
