@@ -111,6 +111,27 @@ def test_no_answer_after_a_settings_write_says_busy_not_wiring() -> None:
     sim.close()
 
 
+def test_hold_after_many_turns_holds_where_the_motor_is(slow_eeprom: tuple[SimBus, SimController, Bus]) -> None:
+    # hold() re-targets the reported (wrapped) position; past the 655.36 deg wrap the motor must
+    # stay where it is, not drive back to the first turn
+    sim, controller, bus = slow_eeprom
+    motor = bus.motor(1)
+    motor.run(300)
+    deadline = time.monotonic() + 5
+    while true_angle(sim, controller) < 1400 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    at_release = true_angle(sim, controller)
+    assert at_release >= 1400, "the motor did not turn"
+    motor.release()
+    motor.hold()
+    time.sleep(0.8)
+    final = true_angle(sim, controller)
+    assert final >= at_release - 5, (at_release, final)  # coasted on while control came back, never back
+    time.sleep(0.3)
+    assert true_angle(sim, controller) == pytest.approx(final, abs=2.0)  # and it holds there
+    assert abs(motor.read_state().speed) < 1.0
+
+
 def true_angle(sim: SimBus, controller: SimController) -> float:
     with sim.lock:
         controller.advance_to(sim.now())

@@ -179,3 +179,23 @@ def test_a_geared_motor_holds_a_speed() -> None:
     port.sleep(1.5)
     data = ask(port, 0, 0xA2)
     assert data is not None and data[0] == 1 and abs(int.from_bytes(data[1:3], "big") - 100) <= 3
+
+
+@pytest.mark.parametrize("direction", [0, 1])
+def test_an_absolute_target_is_for_the_wrapping_register(direction: int) -> None:
+    # after more than a turn of the 655.36 deg register, a target equal to the reported position
+    # holds the motor where it is (it does not drive back to the first turn), and a target is
+    # reached by the way the register counts: the feedback then reads the target
+    _, port = fake_bus()
+    fine_encoder(port)
+    command(port, 0, "accel_speed", bytes([direction]) + u16(1200) + bytes([1]))  # 120 RPM = 720 deg/s
+    port.sleep(1.5)  # about 1000 deg: past the register's wrap
+    command(port, 0, "accel_speed", bytes([direction]) + u16(1) + bytes([1]))  # nearly stopped
+    port.sleep(1.0)
+    reported = position(port, 0)
+    assert 0 < abs(reported) < 655.36 and (reported < 0) == bool(direction)
+    command(port, 0, "position_speed", bytes([direction]) + u16(round(abs(reported) * 100)) + u16(600))
+    trace = [position(port, 0) for _ in range(60) if port.sleep(0.02) is None]
+    assert max(abs(p - reported) for p in trace) < 1.0, trace[::10]
+    command(port, 0, "position_speed", bytes([direction]) + u16(10000) + u16(600))  # 100 deg, same side
+    settle(port, -100.0 if direction else 100.0)

@@ -157,6 +157,16 @@ class SimController:
         """The position the controller reports, in degrees (quantised, in its own sense)."""
         return self.servo.measured_angle() * self._sense()
 
+    def _register_base(self) -> float:
+        """Where the position register's present turn of 655.36 deg starts, in the controller's sense.
+
+        The register is what the feedback reports (wrapped); an absolute target is a value for
+        it, so the motor goes from the register's present value to the target: a hold at the
+        reported position stays put after any number of turns, as on a register-based controller."""
+        logical = self.logical_angle()
+        direction, units = _magnitude_and_direction(logical, 0.01, POSITION_WRAP)
+        return logical - _signed(direction, units / 100)
+
     def logical_speed(self) -> float:
         """deg/s in the controller's sense."""
         return self.servo.motor.speed * self._sense()
@@ -276,8 +286,8 @@ class SimController:
             if self.settings.position_mode:  # relative: a step from where the last move was going
                 base = servo.target if servo.mode is Mode.POSITION else servo.measured_angle()
                 target = base + amount * sense
-            else:
-                target = amount * sense
+            else:  # absolute: a value for the position register, which wraps as the feedback does
+                target = (self._register_base() + amount) * sense
             if isinstance(msg, m.PositionSpeed):
                 servo.move_at_speed(target, msg.speed / 10 * 6)
             else:
