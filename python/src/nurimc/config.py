@@ -86,9 +86,9 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
         return (yield from _change_baud(core, device_id, rate, index, old))
     except (GeneratorExit, SettingNotApplied):  # closed: no I/O any more; not applied: the bus is where it says
         raise
-    except BaseException:  # an I/O error, a timeout or a cancellation thrown in: the host goes back (docs/drivers.md)
+    except BaseException as failure:  # an I/O error, a timeout or a cancellation: the host goes back (docs/drivers.md)
         if core.baudrate != old:
-            yield from core.set_baud(old)
+            yield from core.return_to_baud(old, failure)
         raise
 
 

@@ -105,9 +105,9 @@ def discover(
                 result.append(f)
     except GeneratorExit:  # closed by its driver: no I/O possible any more (finally still runs)
         raise
-    except BaseException:  # an I/O error, a timeout or a cancellation thrown in (docs/drivers.md)
+    except BaseException as failure:  # an I/O error, a timeout or a cancellation thrown in (docs/drivers.md)
         core.timing = original_timing
-        yield from core.set_baud(original)
+        yield from core.return_to_baud(original, failure)
         raise
     finally:
         core.timing = original_timing

@@ -146,6 +146,23 @@ def test_a_failure_thrown_in_at_any_bus_action_of_discovery_restores_the_rate(fa
         s.fail(failure)
 
 
+def test_a_port_that_stays_dead_reports_the_first_failure_and_the_old_rate() -> None:
+    # the port fails mid-scan and then fails the switch back as well: the caller sees the first
+    # failure (with a note that the host could not go back), and the bus's rate is the old one,
+    # which is also what the port was last told (host and port agree)
+    core = bus_core(57600)
+    s = Stepper(discover(core, rates=[9600, 115200]))
+    play_discovery(s, core, 3)  # at 115,200 bps, mid-scan
+    first = OSError("port gone")
+    s.fail(first)
+    assert s.expect(SetBaud) == SetBaud(57600)
+    with pytest.raises(OSError) as raised:
+        s.fail(OSError("still gone"))
+    assert raised.value is first
+    assert any("could not return the host to 57600 bps" in note for note in raised.value.__notes__)
+    assert core.baudrate == 57600
+
+
 def test_a_discovery_closed_mid_walk_puts_its_timing_back() -> None:
     core = bus_core(9600)
     s = Stepper(discover(core, rates=[9600]))

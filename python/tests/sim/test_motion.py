@@ -195,7 +195,10 @@ def test_an_absolute_target_is_for_the_wrapping_register(direction: int) -> None
     reported = position(port, 0)
     assert 0 < abs(reported) < 655.36 and (reported < 0) == bool(direction)
     command(port, 0, "position_speed", bytes([direction]) + u16(round(abs(reported) * 100)) + u16(600))
-    trace = [position(port, 0) for _ in range(60) if port.sleep(0.02) is None]
+    trace = []
+    for _ in range(60):
+        port.sleep(0.02)
+        trace.append(position(port, 0))
     assert max(abs(p - reported) for p in trace) < 1.0, trace[::10]
     command(port, 0, "position_speed", bytes([direction]) + u16(10000) + u16(600))  # 100 deg, same side
     settle(port, -100.0 if direction else 100.0)

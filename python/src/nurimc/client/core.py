@@ -331,10 +331,20 @@ class BusCore:
         self.stats.dropped_bytes += parser.stats.dropped_bytes
         return answers, parser.stats.dropped_bytes
 
+    def return_to_baud(self, rate: int, failure: BaseException) -> Procedure[None]:
+        """Cleanup after `failure` (docs/drivers.md): switch back to `rate`. If the port fails that
+        too (gone for good), the first failure stays the one reported, with a note saying so."""
+        try:
+            yield from self.set_baud(rate)
+        except Exception as also:
+            failure.add_note(f"nurimc: could not return the host to {rate} bps: {also}")
+
     def set_baud(self, rate: int) -> Procedure[None]:
         """Switch the host's rate. Answers still owed at the old rate are forgotten: at another
         rate they can only arrive as broken bytes, never as a frame to be taken for fresh."""
-        yield SetBaud(rate)
-        if rate != self.baudrate:
-            self._pending.clear()
-        self.baudrate = rate
+        try:
+            yield SetBaud(rate)
+        finally:  # a port that failed to switch has still taken the rate as its setting (pyserial)
+            if rate != self.baudrate:
+                self._pending.clear()
+            self.baudrate = rate
