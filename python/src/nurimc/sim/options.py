@@ -19,6 +19,8 @@ def check_baud(rate: int) -> int:
 
 def _int(text: str, what: str) -> int:
     try:
+        if not text.isascii():  # int() reads Arabic-Indic and fullwidth digits; the rest of the CLI does not
+            raise ValueError
         return int(text.strip(), 0)
     except ValueError:
         raise OptionError(f"{what}: {text!r} is not a number") from None

@@ -50,13 +50,20 @@ def bus_from_url(url: str) -> SimBus:
     def one(name: str, default: str) -> str:
         return query.get(name, [default])[-1]
 
-    try:
-        faults: dict[str, Any] = {k: float(one(k, "0" if k != "delay_rate" else "1")) for k in _FLOAT_FAULTS}
-        seed = int(one("seed", "0"))
-        eeprom_ms = float(one("eeprom_ms", "50"))
-        baud = int(one("baud", "9600"))
-    except ValueError as exc:
-        raise OptionError(f"sim:// URL: {exc}") from None
+    def number(name: str, default: str, kind: type[int] | type[float]) -> Any:
+        text = one(name, default)
+        try:
+            if not text.isascii():  # int()/float() read Arabic-Indic and fullwidth digits; the CLI does not
+                raise ValueError
+            return kind(text)
+        except ValueError:
+            what = "a whole number" if kind is int else "a number"
+            raise OptionError(f"sim:// URL: {name}={text!r} is not {what} (ASCII digits)") from None
+
+    faults: dict[str, Any] = {k: number(k, "0" if k != "delay_rate" else "1", float) for k in _FLOAT_FAULTS}
+    seed = number("seed", "0", int)
+    eeprom_ms = number("eeprom_ms", "50", float)
+    baud = number("baud", "9600", int)
     faults["echo"] = parse_bool(one("echo", "0"), "echo")
     check_baud(baud)
     if not (math.isfinite(eeprom_ms) and 0 <= eeprom_ms <= 10_000):
