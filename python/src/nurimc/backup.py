@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import InputError
-from .inputs import Rounded, field_value, integer, show
+from .inputs import Rounded, field_value, integer, json_document, show
 from .protocol import BAUD_RATES, PRODUCTS
 from .settings import SETTINGS
 
@@ -140,14 +140,7 @@ def load(path: str | Path) -> dict[str, Any]:
         data = file.read(SIZE_LIMIT + 1)
     if len(data) > SIZE_LIMIT:
         raise BackupError(f"{path}: larger than {SIZE_LIMIT} bytes; not a nurimc backup")
-    try:
-        document = json.loads(data.decode("utf-8"), object_pairs_hook=_no_duplicates)
-    except UnicodeDecodeError:
-        raise BackupError(f"{path}: not UTF-8 text; not a nurimc backup") from None
-    except RecursionError:
-        raise BackupError(f"{path}: nested too deeply; not a nurimc backup") from None
-    except ValueError as error:
-        raise BackupError(f"{path}: not JSON ({error}); not a nurimc backup") from None
+    document = json_document(data, str(path), "a nurimc backup", BackupError, _no_duplicates)
     return check(document, str(path))
 
 

@@ -8,8 +8,11 @@ wire would round is either refused or reported as rounded, never silently change
 
 from __future__ import annotations
 
+import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from .errors import InputError
 from .protocol import FieldSpec, units
@@ -163,3 +166,22 @@ def field_value(value: object, name: str, spec: FieldSpec, *, whole: bool = Fals
         exact = number(value, name, low, high, unit, integer=True, suffixes=spec.unit)
         return quantize(exact, scale)
     return on_grid(value, name, scale, low, high, unit, suffixes=spec.unit)
+
+
+def json_document(
+    data: bytes,
+    where: str,
+    what: str,
+    error: type[InputError] = InputError,
+    object_pairs_hook: Callable[[list[tuple[str, Any]]], Any] | None = None,
+) -> Any:
+    """Bytes from a file -> JSON, or one line naming `where` and saying it is not `what`
+    (not UTF-8, nested too deeply, not JSON): files are read the same way everywhere."""
+    try:
+        return json.loads(data.decode("utf-8"), object_pairs_hook=object_pairs_hook)
+    except UnicodeDecodeError:
+        raise error(f"{where}: not UTF-8 text; not {what}") from None
+    except RecursionError:
+        raise error(f"{where}: nested too deeply; not {what}") from None
+    except ValueError as problem:
+        raise error(f"{where}: not JSON ({problem}); not {what}") from None

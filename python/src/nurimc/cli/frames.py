@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
@@ -11,7 +10,7 @@ from typing import Any
 import typer
 
 from ..errors import InputError
-from ..inputs import field_value, integer, number, show
+from ..inputs import field_value, integer, json_document, number, show
 from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, decode, make
 from .common import STOP, Number, emit, fail, open_bus, options, table
 
@@ -181,14 +180,7 @@ def read_traffic_log(path: str) -> list[tuple[float, str, bytes]]:
                 raise InputError(f"{where}: longer than {LOG_LINE_LIMIT} bytes; not a traffic log line")
             if not raw.strip():
                 continue
-            try:
-                entry = json.loads(raw.decode("utf-8"))
-            except UnicodeDecodeError:
-                raise InputError(f"{where}: not UTF-8 text; not a traffic log") from None
-            except RecursionError:
-                raise InputError(f"{where}: nested too deeply; not a traffic log line") from None
-            except ValueError as error:
-                raise InputError(f"{where}: not JSON ({error}); not a traffic log line") from None
+            entry = json_document(raw, where, "a traffic log line")
             if not isinstance(entry, dict):
                 raise InputError(f"{where}: {show(entry)} is not a JSON object with t, dir and hex")
             t = number(entry.get("t"), f"{where}: t", 0, None, "s")
