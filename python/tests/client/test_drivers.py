@@ -24,22 +24,23 @@ from nurimc.discovery import Found, discover
 from nurimc.errors import CallTimeout
 from nurimc.protocol import BROADCAST_ID, Firmware, Ping, RequestFirmware, RequestPing, SetBaud, baud_index, decode
 
+from .fakes import ScriptedTransport
+
 RATES = [9600, 115200, 57600, 1_000_000]  # searched in the order 9600, 115200, 1000000, 57600
 CONTROLLERS = {5: 115200, 9: 1_000_000}  # ID: rate
 START_RATE = 19200
 
 
-class FakeBus:
+class FakeBus(ScriptedTransport):
     """Controllers behind a port; `fail_at`: the index of the write that raises PortError."""
 
     url = "fake://"
-    latency = 0.0
 
     def __init__(self, fail_at: int | None = None, controllers: dict[int, int] | None = None) -> None:
+        super().__init__(self._answers)
         self.controllers = dict(CONTROLLERS if controllers is None else controllers)
         self.fail_at = fail_at
         self.writes = 0
-        self.inbox = bytearray()
         self.rate = START_RATE
         self.rates_set: list[int] = []
 
@@ -56,32 +57,27 @@ class FakeBus:
         index, self.writes = self.writes, self.writes + 1
         if index == self.fail_at:
             raise PortError("the adapter was unplugged (write failed)")
+        super().write(data)
+
+    def _answers(self, data: bytes) -> bytes:
         request = decode(data) if data[2] != BROADCAST_ID else None
+        out = b""
         for device_id, rate in sorted(self.controllers.items()):
             if rate != self.rate:
                 continue
             if request is None or request == RequestPing(device_id):
-                self.inbox += Ping(device_id).encode()
+                out += Ping(device_id).encode()
             elif request == RequestFirmware(device_id):
-                self.inbox += Firmware(device_id, 40 + device_id).encode()
+                out += Firmware(device_id, 40 + device_id).encode()
             elif isinstance(request, SetBaud) and request.id == device_id:
                 self.controllers[device_id] = next(r for r in RATE_TABLE if baud_index(r) == request.baud_index)
+        return out
 
     def read(self, max_bytes: int, timeout: float) -> bytes:
         if not self.inbox:
             time.sleep(timeout)  # nothing comes: a real port waits its timeout out
             return b""
-        data = bytes(self.inbox[:max_bytes])
-        del self.inbox[:max_bytes]
-        return data
-
-    def discard_input(self) -> bytes:
-        data = bytes(self.inbox)
-        self.inbox.clear()
-        return data
-
-    def close(self) -> None:
-        pass
+        return super().read(max_bytes, timeout)
 
 
 RATE_TABLE = [9600, 19200, 57600, 115200, 1_000_000]
