@@ -2,7 +2,7 @@
 
 No port, no thread, no real clock: time is a number the test moves. Clock actions (Now, Wait,
 WaitUntil) and Discard/Note are answered here as the drivers would (Discard: nothing
-received); the actions that touch the bus (Send, Receive, SetBaud) stop the stepper, so the
+received); the actions that touch the bus (Send, Receive, SetHostBaud) stop the stepper, so the
 test asserts on them and decides what the wire does.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any, Generic, TypeVar
 
-from nurimc.client.actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetBaud, Wait, WaitUntil
+from nurimc.client.actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
 
 T = TypeVar("T")
 
@@ -32,7 +32,7 @@ class Stepper(Generic[T]):
 
     # -- driving ---------------------------------------------------------------------------
     def _advance(self, step: Any) -> None:
-        """Run until the next bus action (Send, Receive, SetBaud) or the end."""
+        """Run until the next bus action (Send, Receive, SetHostBaud) or the end."""
         try:
             action = step()
             while type(action) in (Now, Wait, WaitUntil, Discard, Note):
@@ -84,7 +84,7 @@ class Stepper(Generic[T]):
             self.receive(b"")
 
     def baud(self) -> int:
-        change: SetBaud = self.expect(SetBaud)
+        change: SetHostBaud = self.expect(SetHostBaud)
         self._advance(lambda: self.procedure.send(None))
         return change.rate
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from nurimc.client.actions import Receive, Send, SetBaud, WaitUntil
+from nurimc.client.actions import Receive, Send, SetHostBaud, WaitUntil
 from nurimc.client.core import BusCore
 from nurimc.client.timing import MAX_RESPONSE_TIME, Timing
 from nurimc.config import change_baud, change_id
@@ -29,7 +29,7 @@ from nurimc.protocol import (
     build_frame,
     decode,
 )
-from nurimc.protocol import SetBaud as SetBaudCommand
+from nurimc.protocol import SetBaud
 
 from .stepping import Stepper
 
@@ -110,7 +110,7 @@ def play_discovery(s: Stepper[list[Found]], core: BusCore, limit: int | None = N
     kinds: list[type] = []
     while not s.done and (limit is None or len(kinds) < limit):
         kinds.append(type(s.action))
-        if type(s.action) is SetBaud:
+        if type(s.action) is SetHostBaud:
             s.baud()
         elif type(s.action) is Send:
             data = s.sent()
@@ -130,13 +130,13 @@ def test_a_failure_thrown_in_at_any_bus_action_of_discovery_restores_the_rate(fa
     whole = Stepper(discover(core, rates=[9600, 115200]))
     kinds = play_discovery(whole, core)
     assert whole.result() == [Found(5, 9600, 1)]
-    assert kinds == [SetBaud, Send, SetBaud, Send, SetBaud, Send, SetBaud]
+    assert kinds == [SetHostBaud, Send, SetHostBaud, Send, SetHostBaud, Send, SetHostBaud]
     for index in range(len(kinds) - 1):  # the last action is the return to the old rate itself
         core = bus_core(57600)
         s = Stepper(discover(core, rates=[9600, 115200]))
         play_discovery(s, core, index)
         s.fail(failure)
-        assert s.expect(SetBaud) == SetBaud(57600), index  # the only thing left to do: go back
+        assert s.expect(SetHostBaud) == SetHostBaud(57600), index  # the only thing left to do: go back
         with pytest.raises(type(failure)):
             s.baud()
         assert core.baudrate == 57600 and core.timing is TIMING
@@ -155,7 +155,7 @@ def test_a_port_that_stays_dead_reports_the_first_failure_and_the_old_rate() -> 
     play_discovery(s, core, 3)  # at 115,200 bps, mid-scan
     first = OSError("port gone")
     s.fail(first)
-    assert s.expect(SetBaud) == SetBaud(57600)
+    assert s.expect(SetHostBaud) == SetHostBaud(57600)
     with pytest.raises(OSError) as raised:
         s.fail(OSError("still gone"))
     assert raised.value is first
@@ -215,7 +215,7 @@ def test_change_baud_switches_the_host_and_verifies_at_the_new_rate() -> None:
     s = Stepper(change_baud(core, 1, 115200))
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
-    assert s.sent() == SetBaudCommand(1, baud_index(115200)).encode()
+    assert s.sent() == SetBaud(1, baud_index(115200)).encode()
     assert s.baud() == 115200
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
@@ -232,7 +232,7 @@ def test_change_baud_interrupted_after_the_switch_puts_the_host_back(failure: Ba
     s.baud()
     s.expect(Send)
     s.fail(failure)  # the verifying ping at the new rate could not be written
-    assert s.expect(SetBaud) == SetBaud(9600)
+    assert s.expect(SetHostBaud) == SetHostBaud(9600)
     with pytest.raises(type(failure)):
         s.baud()
     assert core.baudrate == 9600
@@ -245,7 +245,7 @@ def test_change_baud_that_did_not_take_says_where_the_controller_is() -> None:
     s.receive(Ping(1).encode())
     s.sent()
     assert s.baud() == 115200
-    while type(s.action) is not SetBaud:  # silence at the new rate for the whole verify window
+    while type(s.action) is not SetHostBaud:  # silence at the new rate for the whole verify window
         s.sent()
         s.silence()
     assert s.baud() == 9600  # the old rate is searched first

@@ -63,7 +63,7 @@ class Now:
 
 
 @dataclass(frozen=True, slots=True)
-class SetBaud:
+class SetHostBaud:
     """Switch the host's baud rate. Result: None."""
 
     rate: int
@@ -76,6 +76,6 @@ class Note:
     event: Any
 
 
-Action = Send | Receive | Discard | Wait | WaitUntil | Now | SetBaud | Note
+Action = Send | Receive | Discard | Wait | WaitUntil | Now | SetHostBaud | Note
 T = TypeVar("T")
 Procedure = Generator[Action, Any, T]

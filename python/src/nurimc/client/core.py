@@ -24,7 +24,7 @@ from ..protocol import (
     build_frame,
 )
 from ..protocol.host import LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window, writes_eeprom
-from .actions import Discard, Now, Procedure, Receive, Send, Sent, SetBaud, Wait, WaitUntil
+from .actions import Discard, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
 from .timing import Timing
 
 ALL_IDS = range(255)
@@ -343,7 +343,7 @@ class BusCore:
         """Switch the host's rate. Answers still owed at the old rate are forgotten: at another
         rate they can only arrive as broken bytes, never as a frame to be taken for fresh."""
         try:
-            yield SetBaud(rate)
+            yield SetHostBaud(rate)
         finally:  # a port that failed to switch has still taken the rate as its setting (pyserial)
             if rate != self.baudrate:
                 self._pending.clear()

@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..transport import Transport
-from .actions import Action, Discard, Note, Now, Send, Sent, SetBaud
+from .actions import Action, Discard, Note, Now, Send, Sent, SetHostBaud
 from .log import FrameRecorder
 
 #: how long a read that starts after its deadline still looks for bytes that already came
@@ -62,7 +62,7 @@ class Performer:
             return time.monotonic()
         if type(action) is Discard:
             return self.received(self.transport.discard_input())
-        if type(action) is SetBaud:
+        if type(action) is SetHostBaud:
             self.transport.baudrate = action.rate
             return None
         if type(action) is Note:
