@@ -15,7 +15,7 @@ from rosbags.highlevel import AnyReader
 
 from nurimc.client.sync import Bus
 from nurimc.group import read_states
-from nurimc.protocol import StreamParser
+from nurimc.protocol import BROADCAST_ID, RequestPing, StreamParser, build_frame
 from nurimc.recording.mcap_file import FRAMES_TOPIC, McapRecorder
 from nurimc.ros2 import msgs
 from nurimc.ros2.bridge import Bridge
@@ -160,3 +160,29 @@ def test_record_refuses_an_unwritable_file(tmp_path: Path) -> None:
         env={**os.environ, "NO_COLOR": "1", "COLUMNS": "200"},
     )
     assert proc.returncode == 2 and "cannot write" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_record_without_ids_records_the_controllers_it_finds(tmp_path: Path) -> None:
+    """Discovery's broadcast ping is recorded as sent (the codec would refuse to encode it)."""
+    path = tmp_path / "found.mcap"
+    proc = subprocess.run(
+        [NURIMC, "--port", "sim://?ids=2,5", "record", "--mcap", str(path), "--rate", "20", "--seconds", "0.3"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        env={**os.environ, "NO_COLOR": "1", "COLUMNS": "200"},
+    )
+    assert proc.returncode == 0, proc.stderr
+    names: set[tuple[str, ...]] = set()
+    sent: list[msgs.Frame] = []
+    with path.open("rb") as stream:
+        for _, channel, message in make_reader(stream).iter_messages():
+            if channel.topic == "/joint_states":
+                names.add(tuple(msgs.JointState.deserialize(message.data).name))
+            elif channel.topic == FRAMES_TOPIC:
+                frame = msgs.Frame.deserialize(message.data)
+                if frame.direction == "tx":
+                    sent.append(frame)
+    assert names == {("motor_2", "motor_5")}
+    broadcast_ping = build_frame(BROADCAST_ID, RequestPing.SPEC.mode, b"")
+    assert (sent[0].id, sent[0].name, bytes(sent[0].data)) == (BROADCAST_ID, "request_ping", broadcast_ping)

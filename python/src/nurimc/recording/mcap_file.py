@@ -18,10 +18,23 @@ from cyclonedds.idl import IdlStruct
 from mcap.writer import CompressionType, Writer
 
 from .. import __version__
-from ..protocol import StreamParser
+from ..protocol import Message, StreamParser
+from ..protocol.frame import build_frame
 from ..ros2 import msgs
 
 FRAMES_TOPIC = "/nurimc/frames"
+
+
+def wire_bytes(frame: Message) -> bytes:
+    """The frame's bytes exactly as they were on the wire, whatever its values.
+
+    Not `frame.encode()`: that checks the frame as something to send, and refuses what the
+    codec would not send but the bus carried (discovery's broadcast ping, a controller's
+    out-of-range value). The parser took the frame by its size, mode and checksum, and its
+    fields unpack from and pack to the same bytes, so this rebuilds the bytes seen.
+    """
+    spec = frame.SPEC
+    return build_frame(frame.id, spec.mode, spec.layout.pack(*frame[1:]))
 
 
 class McapRecorder:
@@ -81,7 +94,7 @@ class McapRecorder:
                 direction=direction,
                 id=frame.id,
                 name=frame.name,
-                data=list(frame.encode()),
+                data=list(wire_bytes(frame)),
                 dropped_before=dropped,
             )
             self.write(FRAMES_TOPIC, message, t)
