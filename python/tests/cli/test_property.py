@@ -136,6 +136,11 @@ NUMERIC: list[tuple[str, list[str], Callable[[str], bool] | None]] = [
     ("ros2 --ramp", ["--port", NO_PORT, "ros2", "--ids", "1", "--ramp", "V"], SECONDS),
     ("record --rate", ["--port", NO_PORT, "record", "--mcap", "{tmp}/r.mcap", "--rate", "V"], in_range(0, 10_000)),
     ("record --seconds", ["--port", NO_PORT, "record", "--mcap", "{tmp}/r.mcap", "--seconds", "V"], None),
+    (
+        "record --checkpoint",
+        ["--port", NO_PORT, "record", "--mcap", "{tmp}/r.mcap", "--checkpoint", "V"],
+        in_range(0.05, 60),
+    ),
     ("set id", ["--port", NO_PORT, "--id", "1", "set", "id", "V"], in_range(0, 254, whole=True)),
     ("set baud", ["--port", NO_PORT, "--id", "1", "set", "baud", "V"], one_rate),
     *[(f"set {name}", ["--port", NO_PORT, "--id", "1", "set", name, "V"], None) for name in SETTINGS],

@@ -9,8 +9,10 @@ from pathlib import Path
 import typer
 
 from ..errors import NurimcError
-from .common import fail, options, out
+from .common import EXIT_DEVICE, Number, fail, options, out
 from .ros2_cmd import RATE, SECONDS
+
+CHECKPOINT = Number("--checkpoint", 0.05, 60, "s")
 
 
 def record(
@@ -27,6 +29,12 @@ def record(
         "--seconds",
         help=f"Stop after this many seconds ({SECONDS.allowed}; default: until Ctrl-C).",
         parser=SECONDS,
+    ),
+    checkpoint: float = typer.Option(
+        1.0,
+        "--checkpoint",
+        help=f"Seconds between points where the file is complete ({CHECKPOINT.allowed}); a crash loses at most that.",
+        parser=CHECKPOINT,
     ),
 ) -> None:
     """Record joint_states (sensor_msgs/JointState) and every raw frame with its direction and time.
@@ -48,7 +56,10 @@ def record(
         state_topic = topic(check_namespace(namespace), "joint_states")
     except NameError_ as error:
         fail(str(error))
-    recorder = McapRecorder(mcap_path)
+    try:
+        recorder = McapRecorder(mcap_path, checkpoint_seconds=checkpoint)
+    except ValueError as error:
+        fail(str(error))
     try:
         bus = open_traced_bus(o, recorder)
     except BaseException:  # the port failed: the recording still ends properly (file closed)
@@ -56,6 +67,7 @@ def record(
             recorder.close()
         raise
     stop = threading.Event()
+    port_error: list[str] = []
     try:
         motor_list = motor_ids(o, ids, bus)
         try:
@@ -71,8 +83,8 @@ def record(
             while not stop.is_set():
                 try:
                     bridge.readings(bus.run(read_states(procedures)))
-                except NurimcError as error:  # the port itself failed
-                    out.print(f"error: {error}")
+                except NurimcError as error:  # the port itself failed: end the recording, then say so
+                    port_error.append(str(error))
                     stop.set()
                     return
                 message = bridge.joint_state(time.time_ns())
@@ -91,7 +103,38 @@ def record(
         recorder.close()
     counts = ", ".join(f"{n} on {t}" for t, n in sorted(recorder.counts.items()))
     out.print(f"wrote {mcap_path}: {counts or 'no messages'}", soft_wrap=True)
+    if port_error:
+        fail(f"the recording stopped early: {port_error[0]} (the file is complete up to then)", EXIT_DEVICE)
+
+
+def repair_mcap(
+    torn: Path = typer.Argument(..., help="The MCAP file to repair (it is only read)."),
+    output: Path = typer.Option(
+        None, "--out", "-o", help="Where to write the repaired file (default TORN.repaired.mcap)."
+    ),
+) -> None:
+    """Repair a torn MCAP file (a crash mid-write, a copy cut short): keep every whole record, write a complete file.
+
+    Example: nurimc repair-mcap run.mcap --out run-fixed.mcap
+    """
+    from .ros2_cmd import need_extra
+
+    need_extra()
+    from ..recording.repair import repair
+
+    target = output if output is not None else torn.with_suffix(".repaired.mcap")
+    try:
+        result = repair(torn, target)
+    except ValueError as error:
+        fail(str(error))
+    if result.complete:
+        out.print(f"{torn} was complete; copied {result.messages} messages to {target}", soft_wrap=True)
+    else:
+        out.print(
+            f"wrote {target}: {result.messages} messages kept; {torn} stopped at {result.problem}", soft_wrap=True
+        )
 
 
 def register(app: typer.Typer) -> None:
     app.command(name="record")(record)
+    app.command(name="repair-mcap")(repair_mcap)

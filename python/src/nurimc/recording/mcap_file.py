@@ -9,10 +9,11 @@ the `mcap` tools and rosbags.
 
 from __future__ import annotations
 
+import math
+import os
 import threading
 import time
 from pathlib import Path
-from typing import IO
 
 from cyclonedds.idl import IdlStruct
 from mcap.writer import CompressionType, Writer
@@ -21,6 +22,7 @@ from .. import __version__
 from ..protocol import Message, StreamParser
 from ..protocol.frame import build_frame
 from ..ros2 import msgs
+from .checkpoint import CheckpointStream, checkpoint, finish
 
 FRAMES_TOPIC = "/nurimc/frames"
 
@@ -40,14 +42,25 @@ def wire_bytes(frame: Message) -> bytes:
 class McapRecorder:
     """Write ROS 2 messages to an MCAP file; thread-safe; close() finishes the file (its index)."""
 
-    def __init__(self, path: str | Path, compress: bool = True) -> None:
+    def __init__(self, path: str | Path, compress: bool = True, checkpoint_seconds: float = 1.0) -> None:
+        """`checkpoint_seconds`: how often the file on disk is made complete (0 = only at close);
+        a crash (kill -9, power loss) loses at most that much."""
+        if not (math.isfinite(checkpoint_seconds) and 0 <= checkpoint_seconds <= 3600):
+            raise ValueError(f"checkpoint interval {checkpoint_seconds} s: use 0..3600 seconds (0 = only at the end)")
         self.path = Path(path)
         try:
-            self._file: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 - closed in close()
+            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
         except OSError as error:
             raise ValueError(f"cannot write {self.path}: {error.strerror or error}") from None
-        self._writer = Writer(self._file, compression=CompressionType.ZSTD if compress else CompressionType.NONE)
+        self._stream = CheckpointStream(fd)
+        # chunk_size: no chunk closes on size before the checkpoint closes it (a second of frames is far less)
+        self._writer = Writer(
+            self._stream,  # type: ignore[arg-type]  # a file-like object: write, tell, flush
+            chunk_size=64 << 20,
+            compression=CompressionType.ZSTD if compress else CompressionType.NONE,
+        )
         self._writer.start(profile="ros2", library=f"nurimc {__version__}")
+        checkpoint(self._writer, self._stream, sync=False)  # a valid (empty) file from the start
         self._schemas: dict[str, int] = {}
         self._channels: dict[tuple[str, str], int] = {}
         self._lock = threading.Lock()
@@ -55,6 +68,20 @@ class McapRecorder:
         self._dropped = {"tx": 0, "rx": 0}
         self.counts: dict[str, int] = {}
         self._closed = False
+        self._stop = threading.Event()
+        self._checkpoints: threading.Thread | None = None
+        if checkpoint_seconds:
+            self._checkpoints = threading.Thread(
+                target=self._checkpoint_every, args=(checkpoint_seconds,), name="nurimc-mcap-checkpoint", daemon=True
+            )
+            self._checkpoints.start()
+
+    def _checkpoint_every(self, seconds: float) -> None:
+        while not self._stop.wait(seconds):
+            with self._lock:
+                if self._closed:
+                    return
+                checkpoint(self._writer, self._stream)
 
     def _channel(self, topic: str, ros_type: str) -> int:
         key = (topic, ros_type)
@@ -104,5 +131,8 @@ class McapRecorder:
             if self._closed:
                 return
             self._closed = True
-            self._writer.finish()  # type: ignore[no-untyped-call]
-            self._file.close()
+            self._stop.set()
+            try:
+                finish(self._writer, self._stream)
+            finally:
+                os.close(self._stream.fd)
