@@ -16,7 +16,7 @@ from . import backup as backup_file
 from .client.actions import Procedure, Wait
 from .client.core import BusCore
 from .errors import ConfirmationRequired, IdInUse, InputError, NoAnswer, SettingNotApplied, UnexpectedAnswer
-from .motor import EEPROM_SETTLE, VERIFY_WINDOW, MotorProcedures
+from .motor import VERIFY_WINDOW, MotorProcedures
 from .protocol import (
     BAUD_RATES,
     DEVICE_DEFAULTS,
@@ -27,8 +27,11 @@ from .protocol import (
     SetControl,
     SetId,
     baud_index,
+    make_command,
+    make_request,
+    message_class,
 )
-from .settings import SETTINGS
+from .settings import SETTINGS, Setting, confirmed_answer
 
 BACKUP_FORMAT = backup_file.FORMAT
 
@@ -59,8 +62,7 @@ def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
         raise IdInUse(f"ID {new} already answers at {core.baudrate} bps; pick a free ID (see `nurimc scan`)")
     if not (yield from answers(core, old)):
         raise NoAnswer("request_ping", old, core.baudrate, core.retries + 1)
-    yield from core.tell(SetId(old, new))
-    yield Wait(EEPROM_SETTLE)
+    yield from core.tell(SetId(old, new))  # the core holds the next frame to either ID until the write is done
     if (yield from answers(core, new, VERIFY_WINDOW)):
         core.response_times.pop(old, None)
         return
@@ -96,7 +98,6 @@ def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int)
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
     yield from core.tell(SetBaud(device_id, index))
-    yield Wait(EEPROM_SETTLE)
     yield from core.set_baud(rate)
     if (yield from answers(core, device_id, VERIFY_WINDOW)):
         return rate
@@ -119,17 +120,17 @@ def factory_reset(core: BusCore, device_id: int, confirm: bool = False) -> Proce
             f"factory reset of ID {device_id} erases every setting (it returns as ID 0 at 9600 bps); "
             "pass confirm=True (CLI: --yes) to do it"
         )
-    yield from core.tell(FactoryReset(device_id))
+    yield from core.tell(FactoryReset(device_id))  # busy window for the ID and for ID 0 (docs/protocol.md)
     core.response_times.pop(device_id, None)
-    yield Wait(EEPROM_SETTLE * 2)
 
 
 def recover_runaway(motor: MotorProcedures) -> Procedure[str]:
     """A motor that runs away (motor or encoder wired the other way round): release it and flip its
     control direction (the document's appendix). It is left released; re-enable with hold()."""
     yield from motor.core.tell(SetControl(motor.id, 1))
-    direction = yield from motor.get("direction")
-    flipped = "cw" if direction == "ccw" else "ccw"
+    s = SETTINGS["direction"]
+    answer = yield from confirmed_answer(motor.core, make_request(s.request, motor.id))  # flip what it holds
+    flipped = "cw" if s.to_physical(answer.fields()[s.field]) == "ccw" else "ccw"
     yield from motor.set("direction", flipped)
     yield from motor.release()
     return flipped
@@ -152,9 +153,14 @@ def backup(motors: Sequence[MotorProcedures]) -> Procedure[dict[str, Any]]:
 
 
 def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Procedure[list[str]]:
-    """Write back every setting that differs (each verified); returns what was changed.
+    """Write back every setting that differs (each write verified); returns what was changed.
+
     The document is checked whole first (BackupError naming the motor and field): nothing is
-    written from a backup that is not one we wrote."""
+    written from a backup that is not one we wrote. What differs is judged from confirmed reads
+    (two that agree), and settings written by one command (the gains) are written together with
+    the backup's values, never with values read: noise cannot be written back (docs/library.md,
+    Verified writes). Running it again after an interruption completes it (only what still
+    differs is written)."""
     document = backup_file.check(document)
     by_id = {m.id: m for m in motors}
     changed: list[str] = []
@@ -162,13 +168,34 @@ def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Proc
         motor = by_id.get(entry["id"])
         if motor is None:
             raise ValueError(f"the backup has ID {entry['id']}, which is not among the motors to restore")
-        current = yield from motor.read_settings()
-        for name, value in entry["settings"].items():
-            s = SETTINGS.get(name)
-            if s is None or s.command is None or name == "control" or current.get(name) == value:
-                continue  # read-only, unknown, or already right; control is left as it is (safety)
-            yield from motor.set(name, value)
-            changed.append(f"ID {motor.id} {name}: {current.get(name)} -> {value}")
+        changed += yield from _restore_motor(motor, entry["settings"])
+    return changed
+
+
+def _restore_motor(motor: MotorProcedures, saved: dict[str, Any]) -> Procedure[list[str]]:
+    groups: dict[str, list[Setting]] = {}  # command -> the settings it writes
+    for name in saved:
+        s = SETTINGS.get(name)
+        if s is not None and s.command is not None and name != "control":  # control is left as it is (safety)
+            groups.setdefault(s.command, []).append(s)
+    changed: list[str] = []
+    for command_name, group in groups.items():
+        current = yield from confirmed_answer(motor.core, make_request(group[0].request, motor.id))
+        now = current.fields()
+        wanted = {s.field: s.to_wire(saved[s.name]) for s in group}
+        differing = [s for s in group if now[s.field] != wanted[s.field]]
+        if not differing:
+            continue
+        spec = message_class(command_name).SPEC
+        fields = {
+            f: wanted.get(f, now[f]) for f in spec.field_names
+        }  # a field the backup lacks keeps its confirmed value
+        first = differing[0]
+        yield from motor.write_verified(first, make_command(command_name, motor.id, **fields), wanted[first.field])
+        changed += [
+            f"ID {motor.id} {s.name}: {s.to_physical(now[s.field])} -> {s.to_physical(wanted[s.field])}"
+            for s in differing
+        ]
     return changed
 
 

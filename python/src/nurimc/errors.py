@@ -20,6 +20,7 @@ __all__ = [
     "ProtocolError",
     "SettingNotApplied",
     "UnexpectedAnswer",
+    "UnconfirmedRead",
 ]
 
 
@@ -110,6 +111,11 @@ class UnexpectedAnswer(NurimcError):
 
 class SettingNotApplied(NurimcError):
     """A setting read back differs from what was written: the change did not take."""
+
+
+class UnconfirmedRead(NurimcError):
+    """Reads that a write was to be built from did not agree (noise that passed the checksum):
+    nothing was written."""
 
 
 class IdInUse(NurimcError):

@@ -37,7 +37,7 @@ from .protocol import (
     units,
 )
 from .protocol.host import BUSY_POLL_INTERVAL, LIMITS
-from .settings import SETTINGS, Setting, setting
+from .settings import SETTINGS, Setting, confirmed_answer, fields_differ, setting
 
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest position a command can carry, degrees
 POSITION_WIRE_MAX = units.degrees_to_wire(POSITION_LIMIT)
@@ -228,26 +228,28 @@ class MotorProcedures:
                 s.name, "value", value, f"0.1..{self.profile.max_rated_current / 10} A for {self.profile.title}"
             )
         fields = {s.field: raw}
-        if len(message_class(s.command).SPEC.fields) > 1:  # gains: written together
-            current = yield from self.core.ask(make_request(s.request, self.id))
+        if len(message_class(s.command).SPEC.fields) > 1:  # gains: written together, from a confirmed read
+            current = yield from confirmed_answer(self.core, make_request(s.request, self.id))
             fields = {**current.fields(), s.field: raw}
         yield from self.write_verified(s, make_command(s.command, self.id, **fields), raw)
         return s.to_physical(raw)
 
     def write_verified(self, s: Setting, command: Command, raw: int) -> Procedure[None]:
-        """Send a settings command, then read it back until it matches.
+        """Send a settings command, then read it back until every field it wrote matches.
 
         The core holds the read-back until the busy window has ended; a controller slower than
         its window is polled for one more window before the write is called failed."""
         yield from self.core.tell(command)
         self._remember(s, raw)
         got: int | None = None
+        wrong: dict[str, tuple[int, int]] = {}
         give_up: float | None = None
         while True:
             try:
                 answer = yield from self.core.ask(make_request(s.request, self.id), retries=0)
                 got = answer.fields()[s.field]
-                if got == raw:
+                wrong = fields_differ(command, answer)
+                if not wrong:
                     return
             except NoAnswer:
                 pass
@@ -259,6 +261,9 @@ class MotorProcedures:
             yield Wait(BUSY_POLL_INTERVAL)
         self._relative = None
         said = "no answer" if got is None else f"it reads {s.to_physical(got)}"
+        others = {k: v for k, v in wrong.items() if k != s.field}
+        if got == raw and others:  # what was asked for took, but a field written with it reads otherwise
+            said = "it reads " + ", ".join(f"{k} {read} (wrote {wrote})" for k, (wrote, read) in others.items())
         raise SettingNotApplied(
             f"ID {self.id}: wrote {s.name} = {s.to_physical(raw)} but {said}; the change did not take "
             "(check the value is allowed for this product, then try again)"

@@ -2,6 +2,10 @@
 
 A setting is read with its feedback request and written with its command; settings that
 share a command (Kp, Ki, Kd and rated current) are written together, read-modify-write.
+
+Verified writes (docs/library.md): an 8-bit checksum lets some noise through, so a write built
+from a read takes that read only once two reads agree (`confirmed_answer`), and a write is done
+only when a read-back shows every field it wrote (`fields_differ`).
 """
 
 from __future__ import annotations
@@ -9,8 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import UnknownSetting, ValueOutOfRange
-from .protocol import SPECS, FieldSpec, MessageSpec, units
+from .client.actions import Procedure
+from .client.core import BusCore
+from .errors import UnconfirmedRead, UnknownSetting, ValueOutOfRange
+from .protocol import SPECS, Command, FieldSpec, Message, MessageSpec, Request, units
 from .protocol._settings import SETTINGS as _SPEC_SETTINGS
 
 _INPUT_RULES = {s["name"]: s["input"] for s in _SPEC_SETTINGS}
@@ -116,3 +122,36 @@ def setting(name: str) -> Setting:
         return SETTINGS[key]
     except KeyError:
         raise UnknownSetting(f"unknown setting {name!r}; settings: {', '.join(SETTINGS)}, id, baud") from None
+
+
+#: Reads taken at most to find two that agree before a write is built from them.
+CONFIRM_READS = 4
+
+
+def confirmed_answer(core: BusCore, request: Request) -> Procedure[Message]:
+    """The answer to `request` once two reads agree (at most CONFIRM_READS reads).
+
+    Noise that keeps the checksum changes an answer at random, so two reads that agree are the
+    controller's values; a write built from one read could carry the noise back into the
+    controller's EEPROM (issue 21: one noisy answer rewrote three gains)."""
+    seen: list[Message] = []
+    for _ in range(CONFIRM_READS):
+        answer: Message = yield from core.ask(request)
+        if answer in seen:
+            return answer
+        seen.append(answer)
+    raise UnconfirmedRead(
+        f"ID {request.id}: {CONFIRM_READS} reads of {request.name} all differ ({', '.join(_values(a) for a in seen)}): "
+        "noise on the bus gets past the checksum, so nothing was written; check termination, grounding and the "
+        "cable, then try again"
+    )
+
+
+def fields_differ(command: Command, answer: Message) -> dict[str, tuple[int, int]]:
+    """Every field the command wrote that the read-back answer does not show: {field: (wrote, read)}."""
+    got = answer.fields()
+    return {name: (value, got[name]) for name, value in command.fields().items() if got.get(name) != value}
+
+
+def _values(answer: Message) -> str:
+    return " ".join(f"{k}={v}" for k, v in answer.fields().items())

@@ -53,6 +53,9 @@ def sim(
     delay_ms: Annotated[float, typer.Option(help="Delay answers by this many ms (see --delay-rate).")] = 0.0,
     delay_rate: Annotated[float, typer.Option(help="Probability an answer is delayed by --delay-ms.")] = 1.0,
     miss_rate: Annotated[float, typer.Option(help="Probability an answer never comes.")] = 0.0,
+    same_sum_rate: Annotated[
+        float, typer.Option(help="Probability a frame to the host has two bytes changed that keep its checksum.")
+    ] = 0.0,
     echo: Annotated[bool, typer.Option("--echo", help="The adapter echoes the host's own bytes.")] = False,
     seed: Annotated[int, typer.Option(help="Seed of the fault generator (same seed, same faults).")] = 0,
     eeprom_ms: Annotated[float, typer.Option(help="How long a settings write keeps a controller busy.")] = 50.0,
@@ -105,7 +108,7 @@ def check_serving(
 
 
 def _faults(options: dict[str, Any]) -> FaultConfig:
-    names = ("drop_rate", "flip_rate", "noise_rate", "delay_ms", "delay_rate", "miss_rate", "echo")
+    names = ("drop_rate", "flip_rate", "noise_rate", "delay_ms", "delay_rate", "miss_rate", "same_sum_rate", "echo")
     return FaultConfig(**{n: options[n] for n in names})
 
 

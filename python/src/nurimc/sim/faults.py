@@ -19,9 +19,12 @@ class FaultConfig:
     delay_rate: float = 1.0  # ... with this probability
     miss_rate: float = 0.0  # a controller does not answer at all
     echo: bool = False  # the adapter echoes the host's own bytes back to it
+    # A frame the host gets has two bytes changed by +d and -d: the checksum still holds, so the
+    # frame is taken as valid with wrong values (noise an 8-bit sum cannot catch; issue 21).
+    same_sum_rate: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate"):
+        for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate", "same_sum_rate"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
                 raise ValueError(f"fault {name} = {value} is not a probability; use 0..1")
@@ -32,7 +35,15 @@ class FaultConfig:
 
     @property
     def active(self) -> bool:
-        return bool(self.drop_rate or self.flip_rate or self.noise_rate or self.delay_ms or self.miss_rate or self.echo)
+        return bool(
+            self.drop_rate
+            or self.flip_rate
+            or self.noise_rate
+            or self.delay_ms
+            or self.miss_rate
+            or self.echo
+            or self.same_sum_rate
+        )
 
 
 class FaultInjector:
@@ -41,11 +52,14 @@ class FaultInjector:
     def __init__(self, config: FaultConfig, seed: int) -> None:
         self.config = config
         self.rng = random.Random(seed)
-        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0}
+        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0, "same_sum": 0}
+        self._same_sum = SameSum(self.rng, config.same_sum_rate, self.counts) if config.same_sum_rate else None
 
     def corrupt(self, data: bytes, noise: bool) -> bytes:
         """The bytes as they arrive after drops, bit flips and (towards the host) noise bursts."""
         c, rng = self.config, self.rng
+        if noise and self._same_sum is not None:
+            data = self._same_sum.feed(data)
         if not (c.drop_rate or c.flip_rate or (noise and c.noise_rate)):
             return data
         out = bytearray()
@@ -72,3 +86,52 @@ class FaultInjector:
             self.counts["delayed"] += 1
             return c.delay_ms / 1000
         return 0.0
+
+
+class SameSum:
+    """Follows the frames in the bytes towards the host, however they are cut into chunks, and
+    changes two bytes of a frame by +d and -d (mod 256) with probability `rate` per frame.
+
+    The bytes changed lie among the checksum and the data (never header, ID, size or mode), so
+    the sum ~(ID + size + mode + data) still matches: the host takes a valid frame with wrong
+    values, as when two noise bytes displace two bytes of the same sum on a real line."""
+
+    def __init__(self, rng: random.Random, rate: float, counts: dict[str, int]) -> None:
+        self.rng, self.rate, self.counts = rng, rate, counts
+        self.offset = -1  # where the current byte lies in a frame (-1: looking for a header)
+        self.previous = -1
+        self.length = 0
+        self.plan: dict[int, int] = {}  # frame offset -> delta
+
+    def feed(self, data: bytes) -> bytes:
+        out = bytearray(data)
+        for index, byte in enumerate(data):
+            if self.offset < 0:
+                if self.previous == 0xFF and byte == 0xFE:
+                    self.offset = 1
+            else:
+                self.offset += 1
+                if self.offset == 3:
+                    self._plan(byte)
+                elif self.offset in self.plan:
+                    out[index] = (byte + self.plan[self.offset]) & 0xFF
+                if self.offset >= 3 and self.offset >= self.length - 1:
+                    self.offset = -1
+                    byte = -1  # a frame's last byte starts no header
+            self.previous = byte
+        return bytes(out)
+
+    def _plan(self, size: int) -> None:
+        """At the size byte: the frame's length, and whether (and where) to change it."""
+        self.length = size + 4
+        self.plan = {}
+        if not 3 <= size <= 10:  # no message has this size; or one without data (only the checksum to change)
+            if not 2 <= size <= 10:
+                self.offset = -1
+            return
+        if self.rng.random() >= self.rate:
+            return
+        first, second = self.rng.sample([4, *range(6, self.length)], 2)  # the checksum and the data bytes
+        delta = self.rng.randrange(1, 256)
+        self.plan = {first: delta, second: -delta}
+        self.counts["same_sum"] += 1
