@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any
 
@@ -15,6 +16,7 @@ from ..discovery import Progress as ScanProgress
 from ..discovery import discover
 from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
+from ..journal import RestoreJournal, incomplete_message
 from ..motor import MotorState
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
@@ -148,6 +150,9 @@ def status(ctx: typer.Context) -> None:
         motor = bus.motor(device_id, o.product)
         state = motor.read_state()
         settings = motor.read_settings()
+    unfinished = RestoreJournal(o.port or os.environ.get("NURIMC_PORT", "")).pending(device_id)
+    if unfinished is not None:  # the settings below are part old, part restored (docs/cli.md)
+        err.print(f"warning: {incomplete_message(unfinished)}", soft_wrap=True, markup=False)
     rows = table(f"ID {device_id} at {o.baud} bps", "reading", "value")
     for key, text in _state_rows(state):
         rows.add_row(key, text)
@@ -155,7 +160,8 @@ def status(ctx: typer.Context) -> None:
     rows.add_row("[bold]setting[/]", "")
     for key, value in settings.items():
         rows.add_row(f"{key}", _setting_text(key, value))
-    emit(o, {"id": device_id, "baud": o.baud, "state": _state_dict(state), "settings": settings}, rows)
+    document = {"id": device_id, "baud": o.baud, "state": _state_dict(state), "settings": settings}
+    emit(o, {**document, "incomplete_restore": unfinished} if unfinished else document, rows)
 
 
 def watch(
@@ -184,7 +190,9 @@ def watch(
                     readings.append({"id": m.id, **_state_dict(s)})
                     rows.add_row(str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction)
                 except NurimcError as error:
-                    rows.add_row(str(m.id), "[red]no answer[/]", "", "", escape(str(error)[:40]))
+                    rows.add_row(
+                        str(m.id), "[red]no answer[/]", "", "", escape(str(error))
+                    )  # the whole error: its cause
             return rows
 
         n = 0

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 import typer
@@ -14,9 +16,10 @@ from ..client.sync import Bus
 from ..discovery import discover
 from ..errors import InputError
 from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
+from ..journal import RestoreJournal, incomplete_message
 from ..motor import Motor
 from ..settings import SETTINGS, Setting, setting
-from .common import EXIT_DEVICE, Options, check_baud, emit, fail, note, one_id, open_bus, options, table
+from .common import EXIT_DEVICE, Options, check_baud, emit, err, fail, note, one_id, open_bus, options, table
 
 T = TypeVar("T")
 NAMES = ", ".join([*SETTINGS, "id", "baud"])
@@ -136,11 +139,29 @@ def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file wri
     document = config.load_backup(file)
     ids = [entry["id"] for entry in document.get("motors", [])]
     with open_bus(o) as bus:
+        journal = restore_journal(o, ids, file)  # docs/cli.md: an interrupted restore is found next time
         changed = bus.run(config.restore([bus.motor(i, o.product).procedures for i in ids], document))
+        journal.done(ids)
     rows = table(f"restored from {file}", "change")
     for line in changed or ["nothing differed"]:
         rows.add_row(line)
     emit(o, {"file": file, "changed": changed}, rows)
+
+
+def restore_journal(o: Options, ids: list[int], file: str) -> RestoreJournal:
+    """Say what an earlier restore left unfinished, then mark these IDs as being restored from `file`."""
+    journal = RestoreJournal(o.port or os.environ.get("NURIMC_PORT", ""))
+    target = str(Path(file).resolve())
+    for earlier in sorted({p for p in map(journal.pending, ids) if p is not None}):
+        then = "completing it now" if earlier == target else f"restoring {file} instead replaces it"
+        err.print(f"note: {incomplete_message(earlier)}; {then}", soft_wrap=True, markup=False)
+    try:
+        journal.begin(ids, file)
+    except OSError as error:
+        fail(
+            f"cannot write the restore journal in {journal.directory}: {error.strerror or error}; set NURIMC_STATE_DIR"
+        )
+    return journal
 
 
 def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", help="Do not ask.")) -> None:
