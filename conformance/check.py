@@ -11,6 +11,7 @@ the vector's expectation (conformance/README.md, "Vectors"). Prints failures and
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -54,6 +55,19 @@ def comparable(answer: Any) -> Any:
     return answer
 
 
+def same(got: Any, expect: Any) -> bool:
+    """Equal as JSON values, and a zero's sign counts (`-0.0` is not `0`: conformance/README.md)."""
+    if isinstance(expect, float) and isinstance(got, int | float) and not isinstance(got, bool):
+        return got == expect and math.copysign(1.0, got) == math.copysign(1.0, expect)
+    if isinstance(expect, dict) and isinstance(got, dict):
+        return got.keys() == expect.keys() and all(same(got[k], expect[k]) for k in expect)
+    if isinstance(expect, list) and isinstance(got, list):
+        return len(got) == len(expect) and all(same(g, e) for g, e in zip(got, expect, strict=True))
+    if isinstance(got, bool) or isinstance(expect, bool):
+        return got is expect  # true is not 1
+    return bool(got == expect)
+
+
 def describe(raw: bytes) -> str:
     shown = raw if len(raw) <= 200 else raw[:120] + b"...(%d bytes)..." % len(raw) + raw[-40:]
     return shown.decode("utf-8", "backslashreplace")
@@ -82,7 +96,7 @@ def check(command: list[str], label: str, files: list[Path] | None = None) -> in
             got = json.loads(line)
         except (json.JSONDecodeError, UnicodeDecodeError):
             got = line
-        if comparable(got) != expand(vector["expect"]):
+        if not same(comparable(got), expand(vector["expect"])):
             failed += 1
             if failed <= 20:
                 shown = line if len(line) <= 300 else line[:300] + b"..."

@@ -374,6 +374,9 @@ def edge_vectors() -> list[dict[str, Any]]:
     out.append(line_vec("two objects on one line", [(decode_line + decode_line, 1)], BAD_REQUEST))
     for text in ("[]", "1", '"decode"', "null", "true"):
         out.append(line_vec(f"top-level {text} is no object", [(text, 1)], BAD_REQUEST))
+    # a number with a fraction or an exponent is no object either, however large (conformance/README.md)
+    for text in ("1e400", "-1e400", "1.5", "-0.0", "1E2"):
+        out.append(line_vec(f"top-level float {text} is no object", [(text, 1)], BAD_REQUEST))
 
     # encodings
     out.append(bytes_vec("raw NUL byte after the object", decode_line.encode() + b"\x00", BAD_REQUEST))
@@ -428,6 +431,28 @@ def edge_vectors() -> list[dict[str, Any]]:
             "duplicate keys: the last one counts",
             [('{"op":"encode","op":"decode","hex":"00","hex":"' + hexs(ping) + '"}', 1)],
             decoded_ping,
+        )
+    )
+    # the line contract holds for the whole line: a value a later duplicate overrides is still read
+    out.append(
+        line_vec(
+            "lone surrogate in a value a later duplicate key overrides",
+            [('{"op":"decode","hex":"\\ud800","hex":"' + hexs(ping) + '"}', 1)],
+            BAD_REQUEST,
+        )
+    )
+    out.append(
+        line_vec(
+            "lone surrogate in a key no operation reads",
+            [('{"op":"decode","x\\udc00":1,"hex":"' + hexs(ping) + '"}', 1)],
+            BAD_REQUEST,
+        )
+    )
+    out.append(
+        line_vec(
+            f"nesting {MAX_DEPTH + 1} levels in a value a later duplicate key overrides",
+            [('{"op":"decode","hex":', 1), ("[", MAX_DEPTH), ("]", MAX_DEPTH), (',"hex":"' + hexs(ping) + '"}', 1)],
+            BAD_REQUEST,
         )
     )
     out.append(
@@ -756,7 +781,8 @@ def ref_to_wire(quantity: str, value: Any) -> dict[str, Any]:
 def ref_from_wire(quantity: str, wire: int, direction: int = 0) -> dict[str, Any]:
     if quantity in ("degrees", "rpm", "seconds"):
         value = physical_of(wire, motion_quantity(quantity)["scale"])
-        return {"value": -value if direction == 1 and quantity != "seconds" else value}
+        # zero has no sign: direction 1 with wire 0 is 0, never -0.0 (conformance/README.md)
+        return {"value": -value if direction == 1 and quantity != "seconds" and value else value}
     s = setting_quantity(quantity)
     if str(wire) in s["values"]:
         return {"value": s["values"][str(wire)]}

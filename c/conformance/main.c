@@ -407,7 +407,8 @@ static void op_from_wire(output *out, const json_doc *doc) {
     put(out, "{\"value\":");
     if (name != NULL) {
         put_string(out, name);
-    } else if (nurimc_units_format(wire, num, den, direction == 1, text, sizeof text, NULL) == NURIMC_OK) {
+    } else if (nurimc_units_format(wire, num, den, direction == 1 && wire != 0, text, sizeof text, NULL) == NURIMC_OK) {
+        /* zero has no sign: direction 1 with wire 0 is 0, never -0 (conformance/README.md) */
         put(out, text);
     } else {
         fputs("conformance: a wire value that does not format\n", stderr);

@@ -97,7 +97,8 @@ function fromWireOp(req: Record<string, unknown>): Reply {
 }
 
 export function answer(request: unknown): Reply {
-  if (typeof request !== "object" || request === null || Array.isArray(request)) {
+  // a number written with a fraction or an exponent is read as a JsonFloat object: still no request object
+  if (typeof request !== "object" || request === null || Array.isArray(request) || request instanceof JsonFloat) {
     return { error: "bad_request", detail: "each line must be a JSON object" };
   }
   const req = request as Record<string, unknown>;

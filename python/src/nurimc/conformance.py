@@ -55,7 +55,26 @@ def _no_constant(name: str) -> Any:
     raise BadRequest(f"not JSON: {name}")
 
 
-_DECODER = json.JSONDecoder(parse_float=_Float, parse_int=_integer, parse_constant=_no_constant)
+class _Object(dict[str, Any]):
+    """A JSON object that keeps the values its duplicate keys overrode: the line contract holds
+    for every value on the line, also one a later key replaces (conformance/README.md)."""
+
+    overridden: list[Any]
+
+
+def _object(pairs: list[tuple[str, Any]]) -> _Object:
+    obj = _Object()
+    obj.overridden = []
+    for key, value in pairs:
+        if key in obj:
+            obj.overridden.append(obj[key])
+        obj[key] = value
+    return obj
+
+
+_DECODER = json.JSONDecoder(
+    parse_float=_Float, parse_int=_integer, parse_constant=_no_constant, object_pairs_hook=_object
+)
 
 
 def _check_tree(value: Any, depth: int = 1) -> None:
@@ -67,6 +86,8 @@ def _check_tree(value: Any, depth: int = 1) -> None:
         for key, item in items:
             if isinstance(key, str) and _SURROGATE.search(key):
                 raise BadRequest("a string holds a lone surrogate")
+            _check_tree(item, depth + 1)
+        for item in getattr(value, "overridden", ()):
             _check_tree(item, depth + 1)
     elif isinstance(value, str) and _SURROGATE.search(value):
         raise BadRequest("a string holds a lone surrogate")
@@ -179,7 +200,8 @@ def _from_wire(request: dict[str, Any]) -> dict[str, Any]:
     wire = _integer_in(request.get("wire"), 65535)
     if quantity in ("degrees", "rpm"):
         direction = _integer_in(request.get("direction"), 1)
-        return {"value": signed_degrees(direction, units.from_wire(wire, 0.01 if quantity == "degrees" else 0.1))}
+        value = signed_degrees(direction, units.from_wire(wire, 0.01 if quantity == "degrees" else 0.1))
+        return {"value": value or 0.0}  # zero has no sign: never -0.0 (conformance/README.md)
     if quantity == "seconds":
         return {"value": units.from_wire(wire, 0.1)}
     return {"value": SETTINGS[quantity].to_physical(wire)}
