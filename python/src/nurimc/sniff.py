@@ -24,7 +24,7 @@ _FF = HEADER[0]
 
 
 @dataclass(frozen=True, slots=True)
-class Frame:
+class SniffedFrame:
     """A whole valid frame."""
 
     message: Message
@@ -40,11 +40,11 @@ class Rejected:
     id: int | None = None
 
 
-Event = Frame | Rejected
+Event = SniffedFrame | Rejected
 
 
 class ExplainingParser:
-    """Feed bytes, get Frame and Rejected events in stream order. Never raises; bounded memory."""
+    """Feed bytes, get SniffedFrame and Rejected events in stream order. Never raises; bounded memory."""
 
     def __init__(self) -> None:
         self._buf = bytearray()
@@ -96,7 +96,7 @@ class ExplainingParser:
             verdict = self._candidate(buf, pos, n, final)
             if verdict is None:
                 break  # an incomplete candidate: wait for more bytes
-            if isinstance(verdict, Frame):
+            if isinstance(verdict, SniffedFrame):
                 self._flush_noise(out)
                 out.append(verdict)
                 pos += len(verdict.raw)
@@ -110,7 +110,7 @@ class ExplainingParser:
         self._covered = max(0, self._covered - pos)
         return out
 
-    def _candidate(self, buf: bytearray, pos: int, n: int, final: bool) -> Frame | tuple[int, str] | None:
+    def _candidate(self, buf: bytearray, pos: int, n: int, final: bool) -> SniffedFrame | tuple[int, str] | None:
         """The frame at pos, (bytes, reason) if it is none, or None to wait for more bytes."""
         have = n - pos
         if have < 4:
@@ -133,7 +133,7 @@ class ExplainingParser:
         if buf[pos + CHECKSUM_OFFSET] != expected:
             got = buf[pos + CHECKSUM_OFFSET]
             return size + 4, f"bad checksum 0x{got:02X} (0x{expected:02X} expected) in a {cls.SPEC.name} frame"
-        return Frame(decode_valid(cls, buf, pos), bytes(buf[pos:end]))
+        return SniffedFrame(decode_valid(cls, buf, pos), bytes(buf[pos:end]))
 
 
 def direction(message: Message) -> str:
@@ -153,18 +153,18 @@ class Heard:
 
     @property
     def direction(self) -> str:
-        return direction(self.event.message) if isinstance(self.event, Frame) else "?"
+        return direction(self.event.message) if isinstance(self.event, SniffedFrame) else "?"
 
     def text(self) -> str:
         e = self.event
-        if isinstance(e, Frame):
+        if isinstance(e, SniffedFrame):
             m = e.message
             return f"{self.t:10.4f}  {self.direction:16s} {m.name:24s} {m.physical()}"
         return f"{self.t:10.4f}  {'?':16s} {'(no frame)':24s} {e.reason}: {e.raw.hex(' ')}"
 
     def to_dict(self) -> dict[str, Any]:
         e = self.event
-        if isinstance(e, Frame):
+        if isinstance(e, SniffedFrame):
             m = e.message
             return {
                 "t": round(self.t, 6),
@@ -195,7 +195,7 @@ class Sniffer:
 
     def _count(self, heard: list[Heard]) -> list[Heard]:
         for h in heard:
-            if isinstance(h.event, Frame):
+            if isinstance(h.event, SniffedFrame):
                 self.frames += 1
             else:
                 self.rejected_bytes += len(h.event.raw)

@@ -10,7 +10,7 @@ import serial
 
 from nurimc.protocol import make
 from nurimc.sim import SimBus
-from nurimc.sniff import Frame, Sniffer
+from nurimc.sniff import SniffedFrame, Sniffer
 
 from .fakebus import fake_bus
 from .wirehelp import frame
@@ -18,7 +18,7 @@ from .wirehelp import frame
 
 def _heard(port: serial.SerialBase) -> list[str]:
     heard = Sniffer().feed(port.read(4096), 0.0)
-    return [f"{h.direction} {h.event.message.name}" for h in heard if isinstance(h.event, Frame)]
+    return [f"{h.direction} {h.event.message.name}" for h in heard if isinstance(h.event, SniffedFrame)]
 
 
 def test_monitor_hears_requests_commands_and_answers() -> None:

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nurimc.protocol import StreamParser, make
-from nurimc.sniff import ExplainingParser, Frame, Rejected, Sniffer
+from nurimc.sniff import ExplainingParser, Rejected, SniffedFrame, Sniffer
 
 PING = make("request_ping", 3).encode()
 MOVE = make("position_speed", 1, direction=0, position=9000, speed=100).encode()
@@ -28,7 +28,7 @@ def test_takes_exactly_the_frames_the_stream_parser_takes(parts: list[bytes], cu
         events += explaining.feed(data[pos : pos + cut])
         pos += cut
     events += explaining.feed(data[pos:]) + explaining.finish()
-    assert [e.message for e in events if isinstance(e, Frame)] == expected
+    assert [e.message for e in events if isinstance(e, SniffedFrame)] == expected
 
 
 def test_says_why_a_candidate_is_no_frame() -> None:
@@ -42,7 +42,7 @@ def test_says_why_a_candidate_is_no_frame() -> None:
     assert reasons[1].startswith("unknown mode 0x55")
     assert reasons[2].startswith("wrong size 3 for request_ping")
     assert any("outside any frame" in r for r in reasons)
-    assert isinstance(events[-1], Frame) and events[-1].raw == PING
+    assert isinstance(events[-1], SniffedFrame) and events[-1].raw == PING
     # each rejected candidate is reported once, not once per byte dropped
     assert sum(r.startswith("bad checksum") for r in reasons) == 1
 

@@ -17,7 +17,7 @@ from nurimc.sim import SimBus
 from nurimc.sim.options import OptionError, parse_ids
 from nurimc.sim.profile import load_profiles
 from nurimc.sim.store import StateError
-from nurimc.sniff import Frame, Sniffer
+from nurimc.sniff import SniffedFrame, Sniffer
 
 from .wirehelp import ask, command, frame, position, u16
 
@@ -221,7 +221,7 @@ def test_cli_monitor_hears_the_hosts_requests_and_commands(tmp_path: Path) -> No
             assert len(host.read(12)) == 12  # half duplex: the answer before the next frame
             host.write(frame(1, 0x01, bytes([0]) + u16(9000) + u16(100)))
             heard = Sniffer().feed(sniffer.read(4096), 0.0)
-        names = [f"{h.direction} {h.event.message.name}" for h in heard if isinstance(h.event, Frame)]
+        names = [f"{h.direction} {h.event.message.name}" for h in heard if isinstance(h.event, SniffedFrame)]
         assert names == [
             "host -> id 1 request_position",
             "id 1 -> host position_feedback",

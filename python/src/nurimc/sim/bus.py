@@ -6,14 +6,14 @@ The endpoint modules take a bus and import only core.py, so nothing here is circ
 
 from __future__ import annotations
 
-from .core import BusCore, HostLink, describe
+from .core import HostLink, WireModel, describe
 from .port import SimSerial
 from .pty_server import PtyEndpoint, PtyServer
 from .tcp_server import TcpServer
 
 
-class SimBus(BusCore):
-    """Simulated controllers on one RS485 bus, with endpoints for hosts (see BusCore)."""
+class SimBus(WireModel):
+    """Simulated controllers on one RS485 bus, with endpoints for hosts (see WireModel)."""
 
     def open_serial(self, baudrate: int = 9600, timeout: float | None = 0.1, monitor: bool = False) -> SimSerial:
         """An in-process, pyserial-compatible port on this bus (a monitor hears both directions)."""

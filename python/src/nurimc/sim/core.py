@@ -19,7 +19,7 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from ..protocol import BAUD_RATES, BROADCAST_ID, decode
-from ..sniff import ExplainingParser, Frame
+from ..sniff import ExplainingParser, SniffedFrame
 from .controller import EEPROM_TIME, Reply, SimController
 from .faults import FaultConfig, FaultInjector
 from .profile import SPEED_ZERO_CHOICES, SimProfile, default_profiles
@@ -39,7 +39,7 @@ class HostLink:
     line would; anything it sends itself goes on the bus like any host's bytes.
     """
 
-    def __init__(self, bus: BusCore, baud: int, monitor: bool = False) -> None:
+    def __init__(self, bus: WireModel, baud: int, monitor: bool = False) -> None:
         self.bus = bus
         self.baud = baud
         self.monitor = monitor
@@ -68,8 +68,9 @@ class HostLink:
                 self.bus.links.remove(self)
 
 
-class BusCore:
-    """Simulated controllers on one RS485 bus.
+class WireModel:
+    """The simulator's wire model: simulated controllers on one RS485 bus, the bytes in flight,
+    collisions, rates and faults (the host library's protocol core is nurimc.client.core.BusCore).
 
     `clock` returns seconds (default time.monotonic); tests may pass a fake one and move
     it themselves. With `wire_timing` every byte takes 10 bits / baud on the wire.
@@ -228,7 +229,7 @@ class BusCore:
         if parser is None:
             parser = self._parsers[rate] = ExplainingParser()
         for event in parser.feed(chunk):
-            if not isinstance(event, Frame):
+            if not isinstance(event, SniffedFrame):
                 self.rejected[rate] += len(event.raw)
                 if explain:
                     log.debug("@%d not taken: %s: %s", rate, event.reason, event.raw.hex(" "))
@@ -373,9 +374,9 @@ class BusCore:
                 self._store.close()
 
 
-def describe(bus: BusCore) -> list[str]:
+def describe(bus: WireModel) -> list[str]:
     """One line per controller, for startup output."""
     return [f"id {c.id} @ {c.baud} bps ({c.product})" for c in bus.controllers]
 
 
-__all__ = ["BusCore", "HostLink", "describe"]
+__all__ = ["WireModel", "HostLink", "describe"]

@@ -22,14 +22,16 @@ COULOMB = 300.0
 
 
 @dataclass
-class MotorState:
+class ShaftState:
+    """The simulated motor shaft's physical state (not the library's nurimc.motor.MotorState reading)."""
+
     angle: float = 0.0  # deg, output shaft, unwrapped
     speed: float = 0.0  # deg/s
     current: float = 0.0  # A, signed, what the drive applied in the last step
     accel: float = 0.0  # deg/s^2 in the last step
 
 
-def step_motor(m: MotorState, current: float, accel_per_amp: float, coulomb: float, dt: float) -> None:
+def step_motor(m: ShaftState, current: float, accel_per_amp: float, coulomb: float, dt: float) -> None:
     """Advance one step (semi-implicit Euler: stable for stiff friction at the step we use).
 
     `accel_per_amp` and `coulomb` are at the output shaft (the motor's values / ratio).

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase
 
-from .core import BusCore, HostLink
+from .core import HostLink, WireModel
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer
@@ -21,7 +21,7 @@ class SimSerial(SerialBase):
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        self.bus: BusCore | None = None
+        self.bus: WireModel | None = None
         self.link: HostLink | None = None
         self._own_bus = False
         self.monitor = False  # hear every host's bytes too (a second adapter on the line)
@@ -29,7 +29,7 @@ class SimSerial(SerialBase):
 
     @classmethod
     def on_bus(
-        cls, bus: BusCore, baudrate: int = 9600, timeout: float | None = 0.1, monitor: bool = False
+        cls, bus: WireModel, baudrate: int = 9600, timeout: float | None = 0.1, monitor: bool = False
     ) -> SimSerial:
         port = cls(None, baudrate=baudrate, timeout=timeout)
         port.bus = bus

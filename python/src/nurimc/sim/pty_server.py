@@ -15,7 +15,7 @@ import threading
 import tty
 from pathlib import Path
 
-from .core import BusCore, HostLink
+from .core import HostLink, WireModel
 
 log = logging.getLogger("nurimc.sim")
 
@@ -68,7 +68,7 @@ class PtyEndpoint(str):
 
 
 class PtyServer:
-    def __init__(self, bus: BusCore, link_path: str | None = None, monitor: bool = False) -> None:
+    def __init__(self, bus: WireModel, link_path: str | None = None, monitor: bool = False) -> None:
         self.bus = bus
         self.link_path = link_path
         self.master, self.slave = os.openpty()

@@ -16,7 +16,7 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
-from .motor import ACCEL_PER_AMP, COULOMB, MotorState, step_motor
+from .motor import ACCEL_PER_AMP, COULOMB, ShaftState, step_motor
 
 DT = 0.001  # s, the fixed physics step
 
@@ -59,7 +59,7 @@ class Servo:
     """Motion state of one controller; `advance(dt_total)` steps it at the fixed DT."""
 
     def __init__(self) -> None:
-        self.motor = MotorState()
+        self.motor = ShaftState()
         self.mode = Mode.POSITION
         self.position_gains = Gains(20.0, 0.0, 0.02, 5.0)
         self.speed_gains = Gains(0.009, 0.03, 0.0, 5.0)

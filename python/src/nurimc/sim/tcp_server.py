@@ -12,13 +12,13 @@ import select
 import socket
 import threading
 
-from .core import BusCore, HostLink
+from .core import HostLink, WireModel
 
 log = logging.getLogger("nurimc.sim")
 
 
 class TcpServer:
-    def __init__(self, bus: BusCore, host: str, port: int, baud: int, monitor: bool = False) -> None:
+    def __init__(self, bus: WireModel, host: str, port: int, baud: int, monitor: bool = False) -> None:
         self.bus = bus
         self.baud = baud
         self.monitor = monitor
