@@ -97,7 +97,12 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
 def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int) -> Procedure[int]:
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
-    yield from core.tell(SetBaud(device_id, index))
+    command = SetBaud(device_id, index)
+    yield from core.tell(command)
+    # The host's rate may change only once the frame has left the wire: a UART switched with
+    # bytes still in its FIFO sends them at the new rate, and the controller never hears them.
+    # (Not a settle time: the core holds every frame to this ID until its busy window ends.)
+    yield Wait(core.timing.wire_time(command.SPEC.size + 4, core.baudrate) + core.timing.latency + core.timing.margin)
     yield from core.set_baud(rate)
     if (yield from answers(core, device_id, VERIFY_WINDOW)):
         return rate

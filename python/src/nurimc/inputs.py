@@ -112,6 +112,28 @@ def integer(value: object, name: str, low: int | None = None, high: int | None =
     return int(number(value, name, low, high, unit, integer=True))
 
 
+def id_list(text: str, name: str = "--id") -> list[int]:
+    """The one reading of a list of controller IDs (CLI options and the simulator alike):
+    `1`, `1,2,5`, `0-3`, mixed `1,5-7`; each ID a whole number 0..254 in ASCII digits; a range
+    goes up; space and empty items (`1,`) are ignored. In order, repeats kept: what a repeat
+    means is the caller's (the CLI refuses or merges them; the simulator makes two controllers
+    with one ID, a collision on purpose). InputError names the item otherwise."""
+    ids: list[int] = []
+    for part in text.split(","):
+        item = part.strip()
+        if not item:
+            continue
+        low_text, dash, high_text = item.partition("-")
+        if dash and low_text:
+            low, high = integer(low_text, name, 0, 254), integer(high_text, name, 0, 254)
+            if high < low:
+                raise InputError(f"{name}: {show(item)} is an empty range; write the low ID first, e.g. {high}-{low}")
+            ids += range(low, high + 1)
+        else:
+            ids.append(integer(item, name, 0, 254))
+    return ids
+
+
 @dataclass(frozen=True, slots=True)
 class Rounded:
     """A value as the wire will carry it, with what the person asked for (for 'kp 1.5 -> 2')."""

@@ -19,7 +19,7 @@ from rich.text import Text
 
 from ..client.sync import Bus
 from ..errors import InputError
-from ..inputs import Rounded, integer, number, on_grid, range_text, show, with_unit
+from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
 from ..protocol import BAUD_RATES, StreamParser
 from ..transport import RS485
 
@@ -131,24 +131,11 @@ def report(rounded: Rounded, name: str, unit: str) -> float:
 
 
 def parse_ids(text: str | None, name: str = "--id") -> list[int]:
-    """'1', '1,2,5', '0-3' -> IDs 0..254, each once, in order (usage error otherwise)."""
-    if text is None or not text.strip():
-        return []
-    ids: list[int] = []
-    for part in text.split(","):
-        low_text, dash, high_text = part.strip().partition("-")
-        try:
-            if dash and low_text:
-                low = integer(low_text, name, 0, 254)
-                high = integer(high_text, name, 0, 254)
-                if high < low:
-                    raise InputError(f"{name}: {show(part)} is an empty range; write the low ID first, e.g. 0-3")
-                ids += range(low, high + 1)
-            else:
-                ids.append(integer(part, name, 0, 254))
-        except InputError as error:
-            fail(f"{error} (IDs like 1 or 1,2,5 or 0-3)")
-    return list(dict.fromkeys(ids))
+    """'1', '1,2,5', '0-3' -> IDs 0..254 (nurimc.inputs.id_list), each once, in order (usage error otherwise)."""
+    try:
+        return list(dict.fromkeys(id_list(text or "", name)))
+    except InputError as error:
+        fail(f"{error} (IDs like 1 or 1,2,5 or 0-3)")
 
 
 def check_baud(rate: object, name: str = "--baud") -> int:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ..errors import InputError
+from ..inputs import id_list
 from ..protocol import BAUD_RATES
 
 
@@ -27,23 +29,15 @@ def _int(text: str, what: str) -> int:
 
 
 def parse_ids(text: str) -> list[int]:
-    """Controller IDs: `1` -> ID 1, `0,1,2` -> those IDs, `0-31` -> IDs 0..31 (mixable: `1,5-7`).
+    """Controller IDs: `1` -> ID 1, `0,1,2` -> those IDs, `0-31` -> IDs 0..31 (mixable: `1,5-7`),
+    read by the library's one ID-list reader (nurimc.inputs.id_list); a repeated ID is a second
+    controller with that ID (a collision on purpose).
 
     A single number is one ID, never a count: `sim://?ids=1` is the controller at ID 1."""
-    ids: list[int] = []
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        first, dash, last = part.partition("-")
-        low = _int(first, "--ids") if first.strip() else -1
-        high = _int(last, "--ids") if dash else low
-        for i in (low, high):
-            if not 0 <= i <= 254:
-                raise OptionError(f"--ids {part!r}: ID {i} is out of range; use 0..254 (e.g. 1, 0,1,2 or 0-31)")
-        if high < low:
-            raise OptionError(f"--ids {part!r}: a range goes up, e.g. {high}-{low}")
-        ids.extend(range(low, high + 1))
+    try:
+        ids = id_list(text, "--ids")
+    except InputError as error:
+        raise OptionError(f"{error} (e.g. 1, 0,1,2 or 0-31)") from None
     if len(ids) > 254:
         raise OptionError(f"--ids: {len(ids)} controllers; a bus holds at most 254")
     return ids
