@@ -16,9 +16,11 @@ hardware through two `sensor_msgs/JointState` topics. Their code (not their READ
 Here: a command names joints (by `--joint-names`); position (rad, the published frame) moves the
 joint, at |velocity| when a velocity comes with it, else at `--move-velocity`; velocity alone turns
 it (rad/s, the command timeout applies as to velocity_commands); an empty field means "not
-commanded". A message naming an unknown joint, with a field whose length is neither 0 nor the
-number of names, with effort values (these controllers take no torque command) or non-finite
-values is refused whole, and counted in /diagnostics.
+commanded". Names that are not this bridge's joints are skipped: the topic is shared, so one
+controller manager can drive the joints of several bridges (several buses) through it; a message
+naming none of ours is not for us. A message with a field whose length is neither 0 nor the
+number of names, with effort values for our joints (these controllers take no torque command) or
+non-finite values is refused whole, and counted in /diagnostics.
 """
 
 from __future__ import annotations
@@ -67,22 +69,25 @@ class JointCommands:
         now: float,
     ) -> list[Action]:
         bridge = self.bridge
+        joints = {j.name: j for j in bridge.joints}
+        ours = [i for i, name in enumerate(names) if name in joints]
+        if not ours:
+            return []  # another bridge's joints
         try:
             bridge.counters.commands += 1
             if bridge.estop_latched:
                 raise Refused(f"{WHAT}: estop is latched; publish false on estop to accept commands again")
-            joints = {j.name: j for j in bridge.joints}
-            unknown = [n for n in names if n not in joints]
-            if unknown:
-                raise Refused(f"{WHAT}: unknown joint {', '.join(unknown)} (this bridge has {', '.join(joints)})")
             if len(set(names)) != len(names):
                 raise Refused(f"{WHAT}: a joint is named twice")
-            if any(effort):
+            if effort and len(effort) == len(names) and any(effort[i] for i in ours):
                 raise Refused(f"{WHAT}: effort commands are not supported (use position or velocity interfaces)")
             positions = _field("position", position, len(names))
             velocities = _field("velocity", velocity, len(names))
+            if effort and len(effort) != len(names):
+                _field("effort", effort, len(names))
             plan: list[tuple[Any, float | None, float | None]] = []
-            for i, name in enumerate(names):
+            for i in ours:
+                name = names[i]
                 joint = joints[name]
                 radians = positions[i] if positions is not None else None
                 rad_s = velocities[i] if velocities is not None else None
