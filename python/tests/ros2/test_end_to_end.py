@@ -261,7 +261,7 @@ def test_bad_input_is_one_line(args: list[str], message: str) -> None:
 
 
 def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
-    """--cmd-vel-stamped: geometry_msgs/TwistStamped on cmd_vel (as Jazzy's diff_drive_controller sends) turns wheels."""
+    """--cmd-vel-stamped: geometry_msgs/TwistStamped on cmd_vel (as Jazzy's diff_drive_controller sends) drives."""
     ns = unique("stamped")
     states = peer.subscribe(f"{ns}/joint_states", JointState)
     cmd_vel = peer.publisher(f"{ns}/cmd_vel", TwistStamped)
