@@ -153,7 +153,7 @@ def test_odometry_integrates_the_wheels() -> None:
     b.readings({1: state(1, -360.0, speed=60.0), 2: state(2, 360.0, speed=60.0)})
     b.joints[0].sign, b.joints[1].sign = -1.0, 1.0
     assert drive.update_odometry()
-    assert (drive.x, drive.y, drive.yaw) == (pytest.approx(2 * math.pi * 0.1), pytest.approx(0.0), pytest.approx(0.0))
+    assert [drive.x, drive.y, drive.yaw] == pytest.approx([2 * math.pi * 0.1, 0.0, 0.0])
     assert drive.linear == pytest.approx(2 * math.pi * 0.1)  # 60 RPM of a 0.1 m wheel
     # the right wheel a quarter turn more: turned left by (π/2·0.1)/0.4 rad
     b.readings({1: state(1, -360.0), 2: state(2, 450.0)})
