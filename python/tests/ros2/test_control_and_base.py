@@ -144,6 +144,10 @@ def test_the_base_stops_on_estop_and_refuses_commands_while_latched() -> None:
     assert drive.tick(0.12) == [] and drive.current == (0.0, 0.0)
     with pytest.raises(Refused, match="estop is latched"):
         drive.command(0.5, 0.0, now=0.2)
+    b.estop(False, now=0.3)  # unlatched: the wheels stay released until the next command, then start from 0
+    assert drive.tick(0.32) == []
+    drive.command(0.5, 0.0, now=0.34)
+    assert drive.tick(0.36) == [Run(1, -3.8, 0.1), Run(2, 3.8, 0.1)]  # 0.04 m/s after 40 ms at 1 m/s²
 
 
 def test_odometry_integrates_the_wheels() -> None:

@@ -151,7 +151,7 @@ class DiffDrive:
         c = self.config
         dt = 0.0 if self.ticked_at is None else min(max(now - self.ticked_at, 0.0), MAX_TICK)
         self.ticked_at = now
-        if self.bridge.estop_latched or self.left.mode == "released":
+        if self.bridge.estop_latched:  # released by the estop: start from standstill once it is unlatched
             self.current, self.target, self.moving = (0.0, 0.0), (0.0, 0.0), False
             return []
         target = self.target
