@@ -6,12 +6,13 @@ import math
 
 import pytest
 
-from nurimc.ros2 import convert
+from nurimc.ros2 import convert, msgs
 from nurimc.ros2.bridge import Bridge, Hold, MoveTo, Refused, Run
 from nurimc.ros2.control_topics import JointCommands
 from nurimc.ros2.diffdrive import POSE_COVARIANCE, BaseConfig, DiffDrive
 from nurimc.ros2.graph import Gid, NodeEntitiesInfo, ParticipantEntitiesInfo, node_name
 from nurimc.ros2.names import NameError_
+from nurimc.ros2.typehash import type_description, type_hash, user_data
 
 from .test_bridge import state
 
@@ -217,3 +218,15 @@ def test_the_graph_message_is_rmw_dds_common_on_the_wire() -> None:
     assert body[44:48] == (0).to_bytes(4, "little") and body[48:52] == (1).to_bytes(4, "little")  # no readers, 1 writer
     assert body[52:68] == bytes(gid) and len(body) == 68
     assert ParticipantEntitiesInfo.deserialize(data).serialize() == data
+
+
+def test_endpoints_carry_ros2_type_hashes() -> None:
+    """RIHS01 as ROS 2 Jazzy and Kilted ship them (sensor_msgs 5.x, std_msgs): USER_DATA `typehash=...;`."""
+    assert type_hash(msgs.JointState) == "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"
+    assert type_hash(msgs.Header) == "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01"
+    assert user_data(msgs.Time) == b"typehash=RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197;"
+    description = type_description(msgs.JointState)
+    assert [t["type_name"] for t in description["referenced_type_descriptions"]] == [
+        "builtin_interfaces/msg/Time",
+        "std_msgs/msg/Header",
+    ]

@@ -19,6 +19,9 @@ from typing import Any
 
 import pytest
 
+from nurimc.ros2 import base_msgs, msgs
+from nurimc.ros2.typehash import ros_name, type_hash
+
 from .peer import Peer, TFMessage
 from .test_end_to_end import BridgeProcess, unique
 
@@ -36,6 +39,26 @@ def ros_python(release: str) -> Path:
     if not python.exists():
         pytest.fail(f"no ROS 2 {release} environment at {python}: run `make ros-envs`")
     return python
+
+
+def shipped_hash(release: str, ros_type: str) -> str:
+    """The RIHS01 hash that the release's message package ships (share/<pkg>/msg/<Type>.json)."""
+    share = ros_python(release).parents[1] / "share"
+    return str(json.loads((share / f"{ros_type}.json").read_text())["type_hashes"][0]["hash_string"])
+
+
+@pytest.mark.parametrize("release", RELEASES)
+def test_our_type_hashes_are_those_ros2_ships(release: str) -> None:
+    """RIHS01 computed from our DDS types (typehash.py) against the message packages' own JSON."""
+    types = [*msgs.TYPES.values(), *(getattr(base_msgs, n) for n in ("Twist", "TwistStamped", "Odometry"))]
+    checked = 0
+    for data_type in types:
+        name = ros_name(data_type)
+        if name.startswith("nurimc_msgs/"):
+            continue  # ours: on MCAP only, never on DDS
+        assert type_hash(data_type) == shipped_hash(release, name), name
+        checked += 1
+    assert checked == 13
 
 
 def run_probe(release: str, scenario: str, namespace: str) -> dict[str, Any]:
@@ -69,6 +92,8 @@ def test_arm_with_a_real_ros2_node(release: str) -> None:
     assert seen["names"] == ["shoulder", "elbow"]
     assert seen["joint_states_rate"] > 20, seen  # --rate 50 on a 115200 bps simulated bus
     assert ["nurimc", ns] in seen["graph"]["nodes"], seen["graph"]
+    # USER_DATA typehash: the node sees the hash ROS 2's own sensor_msgs wheel ships for JointState
+    assert seen["graph"]["joint_states_type_hashes"] == [shipped_hash(release, "sensor_msgs/msg/JointState")]
     if release == "jazzy":  # Kilted: see docs/ros2.md (endpoints without a participant GUID)
         assert seen["graph"]["joint_states_publishers"] == [["nurimc", ns]], seen["graph"]
         assert ["nurimc", ns] in seen["graph"]["position_commands_subscribers"], seen["graph"]

@@ -24,6 +24,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from .names import dds_topic
+from .typehash import user_data
 
 MAX_DOMAIN_ID = 232  # ROS 2's limit with the default port mapping
 FAST_DDS_VENDOR = "1.15"  # eProsima's RTPS vendor id (01.0f)
@@ -67,6 +68,16 @@ def default_qos() -> Qos:
     )
 
 
+def endpoint_qos(data_type: type[IdlStruct]) -> Qos:
+    """ROS 2's default QoS, and the USER_DATA rmw gives a reader or writer: the type's hash."""
+    return Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+        Policy.Userdata(user_data(data_type)),
+    )
+
+
 class Participant:
     """One DDS participant with ROS-named topics; readers and writers use ROS 2's default QoS."""
 
@@ -93,13 +104,14 @@ class Participant:
         return self._topics[name]
 
     def writer(self, ros_name: str, data_type: type[IdlStruct]) -> DataWriter[Any]:
-        writer = DataWriter(self.participant, self.topic(ros_name, data_type), qos=default_qos())
+        writer = DataWriter(self.participant, self.topic(ros_name, data_type), qos=endpoint_qos(data_type))
         self.endpoints.append((ros_name, data_type.__idl_typename__, writer))
         return writer
 
     def reader(self, ros_name: str, data_type: type[IdlStruct], on_data: Any = None) -> DataReader[Any]:
         listener = Listener(on_data_available=on_data) if on_data is not None else None  # type: ignore[no-untyped-call]
-        reader = DataReader(self.participant, self.topic(ros_name, data_type), qos=default_qos(), listener=listener)
+        qos = endpoint_qos(data_type)
+        reader = DataReader(self.participant, self.topic(ros_name, data_type), qos=qos, listener=listener)
         self.endpoints.append((ros_name, data_type.__idl_typename__, reader))
         return reader
 

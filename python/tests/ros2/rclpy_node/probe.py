@@ -52,14 +52,19 @@ class Probe:
 
     def graph(self) -> dict:
         names = [list(pair) for pair in self.node.get_node_names_and_namespaces()]
-        pubs = [
-            (i.node_name, i.node_namespace) for i in self.node.get_publishers_info_by_topic(f"{self.ns}/joint_states")
-        ]
+        infos = self.node.get_publishers_info_by_topic(f"{self.ns}/joint_states")
+        pubs = [(i.node_name, i.node_namespace) for i in infos]
+        hashes = sorted({str(i.topic_type_hash) for i in infos})
         subs = [
             (i.node_name, i.node_namespace)
             for i in self.node.get_subscriptions_info_by_topic(f"{self.ns}/position_commands")
         ]
-        return {"nodes": names, "joint_states_publishers": pubs, "position_commands_subscribers": subs}
+        return {
+            "nodes": names,
+            "joint_states_publishers": pubs,
+            "joint_states_type_hashes": hashes,
+            "position_commands_subscribers": subs,
+        }
 
 
 def arm(probe: Probe) -> dict:
