@@ -75,9 +75,12 @@ format: $(STAMP) $(LINT_NPM)  ## apply every formatter (ruff, Biome, clang-forma
 	$(VENV)/bin/clang-format -i $(C_FORMATTED)
 
 # --- tests --------------------------------------------------------------------------------------
-test-python: $(STAMP)  ## Python tests (protocol, simulator, library, CLI, dashboard)
+test-python: $(STAMP) ros-envs  ## Python tests (protocol, simulator, library, CLI, dashboard)
 	bash scripts/dashboard-assets.sh
 	cd python && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
+
+ros-envs:  ## real ROS 2 nodes for the ROS 2 tests: rclpy Jazzy and Kilted from PyPI, in build/ros-*/ (cached)
+	bash scripts/ros-envs.sh
 
 fuzz-python-short: $(STAMP)  ## a short atheris run of the stream parser (part of make test)
 	$(PY) python/fuzz/fuzz_parser.py -runs=200000 -max_len=256

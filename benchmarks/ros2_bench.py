@@ -9,7 +9,12 @@
    the bridge has written its frame to the port (the bridge records every frame it sends with
    `--mcap`; both stamps are the machine's wall clock). p50 / p99, bridge reading at 50 Hz.
 
-Usage: python benchmarks/ros2_bench.py [--quick]   (writes benchmarks/results/ros2.json)
+3. The same two figures seen by a real ROS 2 node: rclpy Jazzy and Kilted from PyPI's wheels
+   (`make ros-envs`; ros2_rclpy_node.py in build/ros-<release>/venv) counting joint_states and
+   publishing velocity_commands.
+
+Usage: python benchmarks/ros2_bench.py [--quick] [--rclpy-only]   (writes benchmarks/results/ros2.json;
+--rclpy-only runs part 3 and replaces only its figures in that file)
 """
 
 from __future__ import annotations
@@ -174,8 +179,101 @@ def command_latency(commands: int) -> dict[str, float]:
     }
 
 
+ROS_ENVS = HERE.parent / "build"
+RCLPY_NODE = HERE / "ros2_rclpy_node.py"
+FASTDDS_LOOPBACK = HERE.parent / "python" / "tests" / "ros2" / "rclpy_node" / "fastdds_loopback.xml"
+
+
+def rclpy_node(release: str, mode: str, ns: str, amount: float) -> dict[str, object]:
+    python = ROS_ENVS / f"ros-{release}" / "venv" / "bin" / "python"
+    if not python.exists():
+        raise SystemExit(f"no ROS 2 {release} environment at {python}: run `make ros-envs`")
+    env = {
+        **os.environ,
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "FASTDDS_DEFAULT_PROFILES_FILE": str(FASTDDS_LOOPBACK),
+    }
+    argv = [str(python), str(RCLPY_NODE), mode, ns, str(amount)]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=300, env=env, check=True)
+    return dict(json.loads(proc.stdout.strip().splitlines()[-1]))
+
+
+def rclpy_joint_states_rate(release: str, motors: int, baud: int, seconds: float) -> dict[str, object]:
+    ids = list(range(1, motors + 1))
+    ns = f"/rclpy_{release}_{motors}"
+    with simulator(ids, baud) as pty:
+        argv = [NURIMC, "--port", pty, "--baud", str(baud), "ros2", "--ids", ",".join(map(str, ids))]
+        with started([*argv, "--namespace", ns, "--rate", "0", "--broadcast-read"]) as bridge:
+            ready_line(bridge)
+            seen = rclpy_node(release, "rate", ns, seconds)
+    rate = float(seen["received"]) / float(seen["seconds"])  # type: ignore[arg-type]
+    limit = wire_limit_broadcast(motors, baud)
+    return {
+        "motors": motors,
+        "baud": baud,
+        "read": "staggered broadcast (--broadcast-read)",
+        "subscriber": f"rclpy {release} (Fast DDS), default QoS",
+        "joint_states_per_s": round(rate, 1),
+        "wire_limit_per_s": round(limit, 1),
+        "fraction_of_wire": round(rate / limit, 3),
+        "seconds": round(float(seen["seconds"]), 2),  # type: ignore[arg-type]
+    }
+
+
+def rclpy_command_latency(release: str, commands: int) -> dict[str, object]:
+    baud, ns = 1_000_000, f"/rclpy_latency_{release}"
+    with tempfile.TemporaryDirectory() as folder, simulator([1], baud) as pty:
+        recording = Path(folder) / "latency.mcap"
+        argv = [NURIMC, "--port", pty, "--baud", str(baud), "ros2", "--ids", "1", "--namespace", ns]
+        with started([*argv, "--rate", "50", "--command-timeout", "0", "--mcap", str(recording)]) as bridge:
+            ready_line(bridge)
+            sent = {int(k): int(v) for k, v in rclpy_node(release, "latency", ns, commands)["sent"].items()}  # type: ignore[union-attr]
+            time.sleep(0.5)
+        latencies = []
+        with recording.open("rb") as stream:
+            for _, _channel, message in make_reader(stream).iter_messages(topics=["/nurimc/frames"]):
+                frame = Frame.deserialize(message.data)
+                if frame.direction == "tx" and frame.name == "accel_speed":
+                    speed = StreamParser().feed(bytes(frame.data))[0].fields()["speed"]
+                    if speed in sent:
+                        latencies.append((message.log_time - sent.pop(speed)) / 1e6)
+    latencies.sort()
+    return {
+        "publisher": f"rclpy {release} (Fast DDS), default QoS",
+        "commands": commands,
+        "frames_matched": len(latencies),
+        "p50_ms": round(statistics.median(latencies), 3),
+        "p99_ms": round(latencies[min(len(latencies) - 1, int(0.99 * len(latencies)))], 3),
+        "max_ms": round(latencies[-1], 3),
+        "bridge_reading_hz": 50,
+        "baud": baud,
+    }
+
+
+def rclpy_results(quick: bool) -> dict[str, dict[str, object]]:
+    seconds, commands = (2.0, 200) if quick else (8.0, 1000)
+    results = {}
+    for release in ("jazzy", "kilted"):
+        results[f"rclpy_{release}_joint_states_2_motors_115200"] = rclpy_joint_states_rate(release, 2, 115_200, seconds)
+        results[f"rclpy_{release}_joint_states_8_motors_1Mbps"] = rclpy_joint_states_rate(
+            release, 8, 1_000_000, seconds
+        )
+        results[f"rclpy_{release}_command_to_wire_latency"] = rclpy_command_latency(release, commands)
+    return results
+
+
 def main() -> None:
     quick = "--quick" in sys.argv
+    if "--rclpy-only" in sys.argv:
+        rclpy = rclpy_results(quick)
+        print(json.dumps(rclpy, indent=2))
+        if not quick:
+            record = json.loads(RESULTS.read_text())
+            record["results"].update(rclpy)
+            record["rclpy_date"] = time.strftime("%Y-%m-%d")
+            RESULTS.write_text(json.dumps(record, indent=2) + "\n")
+            print(f"written: {RESULTS}")
+        return
     seconds = 2.0 if quick else 8.0
     results = {
         "joint_states_2_motors_115200": joint_states_rate(2, 115_200, seconds),
@@ -183,6 +281,7 @@ def main() -> None:
         "joint_states_2_motors_115200_sequential": joint_states_rate(2, 115_200, seconds, broadcast=False),
         "joint_states_8_motors_1Mbps_sequential": joint_states_rate(8, 1_000_000, seconds, broadcast=False),
         "command_to_wire_latency": command_latency(200 if quick else 1000),
+        **rclpy_results(quick),
     }
     print(json.dumps(results, indent=2))
     if not quick:

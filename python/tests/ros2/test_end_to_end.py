@@ -25,7 +25,7 @@ from mcap.reader import make_reader
 
 from nurimc.ros2.msgs import Frame
 
-from .peer import Bool, DiagnosticArray, JointState, Peer, command
+from .peer import Bool, DiagnosticArray, Header, JointState, Peer, Time, Twist, TwistStamped, Vector3, command
 
 NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"
 BAUD = 115200
@@ -223,6 +223,29 @@ def test_two_bridges_in_two_processes_one_subscriber(peer: Peer) -> None:
         (["ros2", "--ids", "1", "--joint-names", "a,b"], "--joint-names gives 2 names for 1 motors"),
         (["ros2", "--ids", "1", "--rate", "-1"], "--rate: '-1' is out of range"),
         (["ros2", "--ids", "9"], "no answer from ID 9"),
+        (["ros2", "--ids", "1", "--node-name", "2x"], "--node-name '2x'"),
+        (["ros2", "--diff-drive", "1"], "--diff-drive 1: give two different IDs"),
+        (["ros2", "--diff-drive", "1,2"], "--diff-drive needs --wheel-radius M and --wheel-separation M"),
+        (["ros2", "--ids", "1", "--wheel-radius", "0.1"], "need --diff-drive LEFT_ID,RIGHT_ID"),
+        (
+            ["ros2", "--ids", "1,2", "--diff-drive", "1,3", "--wheel-radius", "0.1", "--wheel-separation", "0.4"],
+            "ID 3 is not among the bridge's motors",
+        ),
+        (
+            [
+                "ros2",
+                "--diff-drive",
+                "1,2",
+                "--wheel-radius",
+                "0.01",
+                "--wheel-separation",
+                "0.4",
+                "--max-linear",
+                "90",
+            ],
+            "the wheels would need more than",
+        ),
+        (["ros2", "--diff-drive", "1,2", "--wheel-radius", "0.1", "--wheel-separation", "0"], "--wheel-separation"),
     ],
 )
 def test_bad_input_is_one_line(args: list[str], message: str) -> None:
@@ -235,3 +258,30 @@ def test_bad_input_is_one_line(args: list[str], message: str) -> None:
     )
     assert proc.returncode in (1, 2)
     assert message in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
+    """--cmd-vel-stamped: geometry_msgs/TwistStamped on cmd_vel (as Jazzy's diff_drive_controller sends) drives."""
+    ns = unique("stamped")
+    states = peer.subscribe(f"{ns}/joint_states", JointState)
+    cmd_vel = peer.publisher(f"{ns}/cmd_vel", TwistStamped)
+    bridge = BridgeProcess(
+        ns, "1,2", "--diff-drive", "1,2", "--wheel-radius", "0.1", "--wheel-separation", "0.4", "--right-inverted",
+        "--control-commands-topic", "robot_joint_commands", "--control-states-topic", "robot_joint_states",
+        "--cmd-vel-stamped",
+    )  # fmt: skip
+    try:
+        states.wait_for(lambda s: True, 10, "joint_states")
+        time.sleep(0.2)
+        forward = TwistStamped(Header(Time(0, 0), "base_link"), Twist(Vector3(0.3, 0.0, 0.0), Vector3(0.0, 0.0, 0.0)))
+        deadline = time.monotonic() + 4
+        turning = None
+        while time.monotonic() < deadline and turning is None:
+            cmd_vel.write(forward)
+            time.sleep(0.05)
+            last = states.poll()[-1]
+            if abs(last.velocity[0] - 3.0) <= 0.05 and abs(last.velocity[1] + 3.0) <= 0.05:
+                turning = last  # 0.3 m/s on 0.1 m wheels: 3 rad/s, the right motor backwards
+        assert turning is not None, states.samples[-1]
+    finally:
+        assert bridge.stop() == 0, "".join(bridge.stderr)

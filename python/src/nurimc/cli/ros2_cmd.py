@@ -21,6 +21,12 @@ SECONDS = Number("--seconds", 0.01, 1_000_000, "s")
 COMMAND_TIMEOUT = Number("--command-timeout", 0, 3600, "s")
 #: rad/s between the wire's 0.1 and 6553.3 RPM (rounded inwards to the digits shown)
 MOVE_VELOCITY = Number("--move-velocity", 0.0105, 686.2, "rad/s")
+WHEEL_RADIUS = Number("--wheel-radius", 0.001, 10, "m")
+WHEEL_SEPARATION = Number("--wheel-separation", 0.001, 100, "m")
+MAX_LINEAR = Number("--max-linear", 0.001, 100, "m/s")
+MAX_ANGULAR = Number("--max-angular", 0.001, 100, "rad/s")
+MAX_LINEAR_ACCEL = Number("--max-linear-accel", 0.001, 100, "m/s²")
+MAX_ANGULAR_ACCEL = Number("--max-angular-accel", 0.001, 100, "rad/s²")
 
 EXTRA_HINT = "this command needs the ros2 extra: pip install 'nurimc[ros2]' (cyclonedds, mcap)"
 
@@ -128,6 +134,41 @@ def ros2(
         help=f"Stop after this many seconds ({SECONDS.allowed}; default: until Ctrl-C).",
         parser=SECONDS,
     ),
+    node_name: str = typer.Option("nurimc", "--node-name", help="Name of the bridge's node in the ROS 2 graph."),
+    control_commands: str = typer.Option(
+        "/robot_joint_commands",
+        "--control-commands-topic",
+        help="JointState commands of ros2_control's topic-based hardware interface (its joint_commands_topic).",
+    ),
+    control_states: str = typer.Option(
+        "/robot_joint_states",
+        "--control-states-topic",
+        help="Where that interface reads joint states (its joint_states_topic).",
+    ),
+    diff_drive: str = typer.Option(
+        None, "--diff-drive", help="Mobile base: LEFT_ID,RIGHT_ID wheel motors (cmd_vel in, odom and /tf out)."
+    ),
+    wheel_radius: float = typer.Option(
+        None, "--wheel-radius", help="Wheel radius, m (with --diff-drive).", parser=WHEEL_RADIUS
+    ),
+    wheel_separation: float = typer.Option(
+        None, "--wheel-separation", help="Distance between the wheels, m (with --diff-drive).", parser=WHEEL_SEPARATION
+    ),
+    left_inverted: bool = typer.Option(False, "--left-inverted", help="The left motor turns backwards for forward."),
+    right_inverted: bool = typer.Option(False, "--right-inverted", help="The right motor turns backwards for forward."),
+    max_linear: float = typer.Option(1.0, "--max-linear", help="Base speed limit, m/s.", parser=MAX_LINEAR),
+    max_angular: float = typer.Option(2.0, "--max-angular", help="Base turn-rate limit, rad/s.", parser=MAX_ANGULAR),
+    max_linear_accel: float = typer.Option(
+        1.0, "--max-linear-accel", help="Base acceleration limit, m/s².", parser=MAX_LINEAR_ACCEL
+    ),
+    max_angular_accel: float = typer.Option(
+        3.0, "--max-angular-accel", help="Base angular acceleration limit, rad/s².", parser=MAX_ANGULAR_ACCEL
+    ),
+    stamped: bool = typer.Option(
+        False, "--cmd-vel-stamped", help="cmd_vel is geometry_msgs/TwistStamped (Jazzy's diff_drive_controller)."
+    ),
+    odom_frame: str = typer.Option("odom", "--odom-frame", help="Frame id of the odometry."),
+    base_frame: str = typer.Option("base_link", "--base-frame", help="Frame id of the base."),
 ) -> None:
     """Publish joint_states and /diagnostics; obey position_commands, velocity_commands and estop (ROS 2 over DDS).
 
@@ -135,9 +176,11 @@ def ros2(
     """
     o = options(ctx)
     need_extra()
+    from ..ros2 import control_topics, diffdrive
     from ..ros2.bridge import Bridge
     from ..ros2.dds import Participant, domain_id
-    from ..ros2.names import NameError_
+    from ..ros2.graph import node_name as check_node_name
+    from ..ros2.names import NameError_, topic
     from ..ros2.names import joint_names as make_joint_names
     from ..ros2.names import namespace as check_namespace
     from ..ros2.node import BridgeNode
@@ -145,6 +188,10 @@ def ros2(
     try:
         ns = check_namespace(namespace)
         domain = domain_id()
+        check_node_name(node_name)
+        base_ids = _base_ids(diff_drive, wheel_radius, wheel_separation)
+        if base_ids and not ids and not o.ids:
+            ids = ",".join(map(str, base_ids))
     except (NameError_, ValueError) as error:
         fail(str(error))
     recorder = None
@@ -164,14 +211,28 @@ def ros2(
         try:
             names = make_joint_names(joint_names, motor_list)
             bridge = Bridge(motor_list, names, command_timeout, move_velocity, ramp)
+            base = None
+            if base_ids:
+                base = diffdrive.BaseConfig(
+                    base_ids[0], base_ids[1], wheel_radius, wheel_separation, left_inverted, right_inverted,
+                    max_linear, max_angular, max_linear_accel, max_angular_accel, command_timeout,
+                    odom_frame, base_frame,
+                )  # fmt: skip
+                diffdrive.DiffDrive(bridge, base)  # checks the set-up before DDS is touched
+            participant = Participant(domain)
         except ValueError as error:
             fail(str(error))
-        node = BridgeNode(bus, bridge, Participant(domain), ns, rate, o.product, broadcast_read, recorder)
+        node = BridgeNode(bus, bridge, participant, ns, rate, o.product, broadcast_read, recorder, node_name=node_name)
+        control_topics.attach(node, topic(ns, control_commands), topic(ns, control_states))
+        if base is not None:
+            diffdrive.attach(node, base, stamped)
         node.prepare()
         joints = ", ".join(f"{n}=ID {i}" for n, i in zip(names, motor_list, strict=True))
         out.print(
-            f"ready: domain {domain}, {node.joint_states_topic} ({joints}); commands on "
-            f"{'' if ns == '/' else ns}/position_commands, velocity_commands, estop; /diagnostics",
+            f"ready: domain {domain}, node {topic(ns, node_name)}, {node.joint_states_topic} ({joints}); commands on "
+            f"{'' if ns == '/' else ns}/position_commands, velocity_commands, estop; /diagnostics; "
+            f"ros2_control: {topic(ns, control_commands)} -> {topic(ns, control_states)}"
+            + (f"; base: {topic(ns, 'cmd_vel')} -> {topic(ns, 'odom')}, /tf" if base is not None else ""),
             soft_wrap=True,
         )
         node.start()
@@ -185,6 +246,20 @@ def ros2(
         bus.close()
         if recorder is not None:
             recorder.close()
+
+
+def _base_ids(text: str | None, radius: float | None, separation: float | None) -> list[int]:
+    """--diff-drive LEFT,RIGHT (with its wheel geometry), or [] without it."""
+    if not text:
+        if radius is not None or separation is not None:
+            raise ValueError("--wheel-radius/--wheel-separation need --diff-drive LEFT_ID,RIGHT_ID")
+        return []
+    ids = parse_ids(text, "--diff-drive")
+    if len(ids) != 2 or ids[0] == ids[1]:
+        raise ValueError(f"--diff-drive {text}: give two different IDs, left then right (e.g. 1,2)")
+    if radius is None or separation is None:
+        raise ValueError("--diff-drive needs --wheel-radius M and --wheel-separation M")
+    return ids
 
 
 def register(app: typer.Typer) -> None:

@@ -3,7 +3,10 @@
 ROS 2's default QoS profile (rmw_qos_profile_default) is reliable, volatile, keep last 10; we
 use it on every topic, as ROS 2 nodes do for joint_states, command and diagnostics topics.
 Which network interfaces and peers DDS uses comes from CYCLONEDDS_URI (Cyclone DDS's own
-configuration; the tests pin it to the loopback interface).
+configuration; the tests pin it to the loopback interface). To it we add one setting of our own,
+FAST_DDS_NAME_MATCHING: Fast DDS 3 (ROS 2 Kilted's default middleware) sends XTypes type
+information that Cyclone cannot use, so endpoints of Fast DDS participants are matched by topic and
+type name, as ROS 2 itself does (docs/ros2.md, "Kilted and Fast DDS 3").
 """
 
 from __future__ import annotations
@@ -12,8 +15,8 @@ import os
 import time
 from typing import Any
 
-from cyclonedds.core import Listener, Policy, Qos
-from cyclonedds.domain import DomainParticipant
+from cyclonedds.core import DDSException, Listener, Policy, Qos
+from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -21,8 +24,19 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from .names import dds_topic
+from .typehash import user_data
 
 MAX_DOMAIN_ID = 232  # ROS 2's limit with the default port mapping
+FAST_DDS_VENDOR = "1.15"  # eProsima's RTPS vendor id (01.0f)
+#: Match endpoints of Fast DDS participants by topic and type name, ignoring their XTypes type
+#: information (Cyclone DDS >= 11.0.1; see docs/ros2.md for why).
+FAST_DDS_NAME_MATCHING = (
+    "<CycloneDDS><Domain Id='any'><Compatibility>"
+    f"<IgnoreTypeInformation>{FAST_DDS_VENDOR}</IgnoreTypeInformation>"
+    "</Compatibility></Domain></CycloneDDS>"
+)
+#: What ROS 2's middleware puts in a participant's USER_DATA: the security enclave ("/" = none)
+ENCLAVE_USER_DATA = b"enclave=/;"
 
 
 def domain_id(environ: dict[str, str] | None = None) -> int:
@@ -39,6 +53,12 @@ def domain_id(environ: dict[str, str] | None = None) -> int:
     return value
 
 
+def domain_config(environ: dict[str, str] | None = None) -> str:
+    """The user's CYCLONEDDS_URI (files or XML, comma-separated) followed by our compatibility setting."""
+    user = (os.environ if environ is None else environ).get("CYCLONEDDS_URI", "").strip()
+    return f"{user},{FAST_DDS_NAME_MATCHING}" if user else FAST_DDS_NAME_MATCHING
+
+
 def default_qos() -> Qos:
     """ROS 2's default: reliable, volatile, keep last 10."""
     return Qos(
@@ -48,13 +68,34 @@ def default_qos() -> Qos:
     )
 
 
+def endpoint_qos(data_type: type[IdlStruct]) -> Qos:
+    """ROS 2's default QoS, and the USER_DATA rmw gives a reader or writer: the type's hash."""
+    return Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+        Policy.Userdata(user_data(data_type)),
+    )
+
+
 class Participant:
     """One DDS participant with ROS-named topics; readers and writers use ROS 2's default QoS."""
 
     def __init__(self, domain: int | None = None) -> None:
         self.domain = domain_id() if domain is None else domain
-        self.participant = DomainParticipant(self.domain)
+        try:  # a domain of our own, with the user's configuration and our compatibility setting
+            self._domain: Domain | None = Domain(self.domain, domain_config())
+        except DDSException as error:
+            if error.code != DDSException.DDS_RETCODE_PRECONDITION_NOT_MET:
+                raise ValueError(
+                    f"Cyclone DDS refused its configuration (CYCLONEDDS_URI and {FAST_DDS_NAME_MATCHING}): {error}; "
+                    "check CYCLONEDDS_URI (cyclonedds >= 11.0.1 is needed)"
+                ) from None
+            self._domain = None  # this process already has the domain (e.g. a test's own participant)
+        self.participant = DomainParticipant(self.domain, qos=Qos(Policy.Userdata(ENCLAVE_USER_DATA)))
         self._topics: dict[str, Topic[Any]] = {}
+        #: the ROS endpoints (name, ROS type, reader or writer) for the node graph (graph.py)
+        self.endpoints: list[tuple[str, str, DataReader[Any] | DataWriter[Any]]] = []
 
     def topic(self, ros_name: str, data_type: type[IdlStruct]) -> Topic[Any]:
         name = dds_topic(ros_name)
@@ -63,11 +104,16 @@ class Participant:
         return self._topics[name]
 
     def writer(self, ros_name: str, data_type: type[IdlStruct]) -> DataWriter[Any]:
-        return DataWriter(self.participant, self.topic(ros_name, data_type), qos=default_qos())
+        writer = DataWriter(self.participant, self.topic(ros_name, data_type), qos=endpoint_qos(data_type))
+        self.endpoints.append((ros_name, data_type.__idl_typename__, writer))
+        return writer
 
     def reader(self, ros_name: str, data_type: type[IdlStruct], on_data: Any = None) -> DataReader[Any]:
         listener = Listener(on_data_available=on_data) if on_data is not None else None  # type: ignore[no-untyped-call]
-        return DataReader(self.participant, self.topic(ros_name, data_type), qos=default_qos(), listener=listener)
+        qos = endpoint_qos(data_type)
+        reader = DataReader(self.participant, self.topic(ros_name, data_type), qos=qos, listener=listener)
+        self.endpoints.append((ros_name, data_type.__idl_typename__, reader))
+        return reader
 
     def other_writers(self, ros_name: str, data_type: type[IdlStruct], wait: float) -> int:
         """How many writers of other participants publish this topic (after `wait` s of discovery)."""
@@ -85,4 +131,7 @@ class Participant:
     def close(self) -> None:
         # Deleting the participant deletes its readers, writers and topics (and listeners) with it.
         self._topics.clear()
+        self.endpoints.clear()
         self.participant.__del__()
+        if self._domain is not None:
+            self._domain.__del__()

@@ -23,6 +23,7 @@ from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
 from .dds import Participant
+from .graph import NodeAnnouncer
 from .names import topic
 
 DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
@@ -53,6 +54,7 @@ class BridgeNode:
         broadcast_read: bool = False,
         sink: StateSink | None = None,
         log: Callable[[str], None] | None = None,
+        node_name: str | None = "nurimc",
     ) -> None:
         if rate < 0 or not math.isfinite(rate):
             raise ValueError(f"--rate {rate}: give readings per second > 0 (0 = as fast as the bus allows)")
@@ -84,6 +86,10 @@ class BridgeNode:
             participant.reader(topic(namespace, "velocity_commands"), msgs.Float64MultiArray, self._queue("velocity")),
             participant.reader(topic(namespace, "estop"), msgs.Bool, self._queue("estop")),
         ]
+        #: called on the bus thread after each reading is published (ros2_control topics, mobile base)
+        self.after_read: list[Callable[[float], list[Action]]] = []
+        #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
+        self.graph = NodeAnnouncer(participant, node_name, namespace) if node_name else None
 
     # -- DDS threads ------------------------------------------------------------------------
     def _queue(self, kind: str) -> Callable[[Any], None]:
@@ -95,6 +101,10 @@ class BridgeNode:
                     self._push(kind, list(sample.data))
 
         return on_data
+
+    def call_on_bus_thread(self, work: Callable[[float], list[Action]]) -> None:
+        """Queue work (from a DDS thread) that returns the actions to carry out; an estop drops it."""
+        self._push("call", work)
 
     def _push(self, kind: str, value: Any) -> None:
         with self._wake:
@@ -129,6 +139,8 @@ class BridgeNode:
         return results
 
     def start(self) -> None:
+        if self.graph is not None:
+            self.graph.announce()
         self._thread = threading.Thread(target=self.run, name="nurimc-ros2-bridge", daemon=True)
         self._thread.start()
 
@@ -188,6 +200,8 @@ class BridgeNode:
                 actions = self.bridge.estop(bool(value), now)
             elif kind == "position":
                 actions = self.bridge.position_command(value, now)
+            elif kind == "call":
+                actions = value(now)
             else:
                 actions = self.bridge.velocity_command(value, now)
         except Refused as error:
@@ -260,6 +274,8 @@ class BridgeNode:
             self.published += 1
             if self.sink is not None:
                 self.sink.joint_state(self.joint_states_topic, message)
+        for work in self.after_read:
+            self._carry_out(work(time.monotonic()))
         return message
 
     def publish_diagnostics(self) -> None:
