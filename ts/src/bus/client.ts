@@ -219,6 +219,19 @@ export class Bus {
     });
   }
 
+  /** How many emergency stops this bus has sent: a multi-step operation started before one must not go on. */
+  get stops(): number {
+    return this.epoch;
+  }
+
+  /** Throws CancelledError if an emergency stop was sent since `stops` was read (Motor checks it between steps). */
+  assertNoStopSince(stops: number): void {
+    if (stops !== this.epoch) {
+      this.stats.cancelled += 1;
+      throw new CancelledError("cancelled by an emergency stop; the rest of this operation was not sent");
+    }
+  }
+
   /** How many answers an ID still owes (late answers the client will drop), and until when. */
   owedAnswers(id: number): { count: number; until: number } | undefined {
     const owed = this.owed.get(id);

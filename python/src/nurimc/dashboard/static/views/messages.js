@@ -1,6 +1,7 @@
 // Toasts (the same one again is counted, not stacked), and the request helpers every view uses.
 import { $, build } from "../core/dom.js";
 import { serverError, t } from "../core/i18n.js";
+import { InputProblem } from "../core/input.js";
 import { dashboard, emit } from "../core/store.js";
 
 const MAX_TOASTS = 4;
@@ -45,7 +46,10 @@ export function act(what, fn) {
     try {
       await fn(event);
     } catch (error) {
-      if (!error.reported) sayError(typeof what === "function" ? what() : what, error.message);
+      if (error.reported) return;
+      const prefix = typeof what === "function" ? what() : what;
+      if (error instanceof InputProblem) say(`${prefix}: ${error.message}`, "error"); // the page's own words, already in its language
+      else sayError(prefix, error.message);
     }
   };
 }

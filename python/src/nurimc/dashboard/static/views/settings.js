@@ -75,7 +75,8 @@ const shown = (s, value) => (s.choices?.length ? t(`choice.${value}`) : value);
 function rangeText(s) {
   if (s.choices.length) return s.choices.map((c) => t(`choice.${c}`)).join(" / ");
   if (!s.writable) return t("settings.readOnly");
-  return `${s.min} … ${s.max}${s.unit ? ` ${s.unit}` : ""}`;
+  const unit = s.unit === "rpm" ? "RPM" : s.unit; // one spelling of the unit on the page
+  return `${s.min} … ${s.max}${unit ? ` ${unit}` : ""}`;
 }
 
 export async function readSettings() {
