@@ -125,9 +125,13 @@ export async function openConsole(browser, url, { viewport, init } = {}) {
   if (viewport) await page.setViewportSize(viewport);
   if (init) await page.addInitScript(init);
   await page.goto(url);
-  await page.waitForFunction(() => window.dashboard?.connected && document.querySelectorAll(".card").length === 3, null, {
-    timeout: 60000,
-  });
+  await page.waitForFunction(
+    () => window.dashboard?.connected && document.querySelectorAll(".card").length === 3,
+    null,
+    {
+      timeout: 60000,
+    },
+  );
   return page;
 }
 
@@ -146,7 +150,11 @@ export function countPixels(page, selector, colours, tolerance = 40) {
       for (let i = 0; i < data.length; i += 4) {
         if (data[i + 3] < 200) continue;
         rgb.forEach(([r, g, b], k) => {
-          if (Math.abs(data[i] - r) <= tolerance && Math.abs(data[i + 1] - g) <= tolerance && Math.abs(data[i + 2] - b) <= tolerance)
+          if (
+            Math.abs(data[i] - r) <= tolerance &&
+            Math.abs(data[i + 1] - g) <= tolerance &&
+            Math.abs(data[i + 2] - b) <= tolerance
+          )
             counts[k] += 1;
         });
       }

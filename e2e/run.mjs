@@ -1,8 +1,8 @@
 // End-to-end tests of the console in headless Chromium against `nurimc dashboard --sim`.
 
 import assert from "node:assert/strict";
-import { existsSync, mkdirSync, mkdtempSync, readFileSync } from "node:fs";
 import { spawnSync } from "node:child_process";
+import { existsSync, mkdirSync, mkdtempSync, readFileSync } from "node:fs";
 import { request as httpRequest } from "node:http";
 import { connect } from "node:net";
 import { tmpdir } from "node:os";
@@ -150,7 +150,11 @@ test("a move shows in the live plot, with its target, on a time axis relative to
       return u.axes.slice(1).map((a) => `${a.scale}:${a.label}`);
     });
     assert.deepEqual(axes, ["deg:°"], "the card's plot: position and target on one axis (the Plot view has the rest)");
-    assert.match(await card.locator(".state").textContent(), /^(on|moving)$/, "the card says the motor is on or moving");
+    assert.match(
+      await card.locator(".state").textContent(),
+      /^(on|moving)$/,
+      "the card says the motor is on or moving",
+    );
   } finally {
     await page.close();
   }
@@ -319,7 +323,9 @@ test("the step tool prefills the gains, draws while it records, overlays runs in
     await page.fill("#step-duration", "2");
     await page.click("#step-run");
     // while it records: the live trace is drawn (red), before the server's answer arrives
-    await page.waitForFunction(() => Number(document.querySelector("#step-plot").dataset.points) > 20, null, { timeout: 5000 });
+    await page.waitForFunction(() => Number(document.querySelector("#step-plot").dataset.points) > 20, null, {
+      timeout: 5000,
+    });
     const drawing = await countPixels(page, "#step-plot", ["#b91c1c"]);
     assert.equal(await page.evaluate(() => window.dashboard.stepRuns.length), 0, "still recording");
     assert.ok(drawing["#b91c1c"] > 100, `the live trace is drawn while recording: ${JSON.stringify(drawing)}`);
@@ -334,23 +340,33 @@ test("the step tool prefills the gains, draws while it records, overlays runs in
     assert.equal(await page.locator("#step-plot .u-legend .u-series").count(), 4, "t, target and both runs");
     const rows = await page.locator("#step-runs tbody tr").allTextContents();
     assert.equal(rows.length, 2, "a row per run");
-    assert.ok(rows.every((row) => /ID 1.*\d+ \/ \d+ \/ \d+.*ms.*%/.test(row)), rows.join("\n"));
+    assert.ok(
+      rows.every((row) => /ID 1.*\d+ \/ \d+ \/ \d+.*ms.*%/.test(row)),
+      rows.join("\n"),
+    );
     const runPixels = await countPixels(page, "#step-plot", ["#2457c5", "#d97706"]);
-    assert.ok(Object.values(runPixels).every((n) => n > 100), `both runs drawn: ${JSON.stringify(runPixels)}`);
+    assert.ok(
+      Object.values(runPixels).every((n) => n > 100),
+      `both runs drawn: ${JSON.stringify(runPixels)}`,
+    );
     await page.locator("#step-runs tbody tr").nth(0).locator("td.ab input").nth(0).check();
     await page.locator("#step-runs tbody tr").nth(1).locator("td.ab input").nth(1).check();
     assert.match(await page.textContent("#step-ab"), /B \(#2\) − A \(#1\): rise/);
     const kp = Number(await page.inputValue("#gain-kp"));
     await page.fill("#gain-kp", String(kp === 254 ? 253 : kp + 1));
     await page.click("#gains-write");
-    await page.waitForFunction(() => /each written and verified/.test(document.querySelector("#gains-text").textContent));
+    await page.waitForFunction(() =>
+      /each written and verified/.test(document.querySelector("#gains-text").textContent),
+    );
     assert.match(await page.textContent("#gains-text"), /Kp = \d+, .*Ki = \d+, .*Kd = \d+/, "every gain reported");
     await page.fill("#gain-kp", String(kp));
     await page.evaluate(() => {
       document.querySelector("#gains-text").textContent = "";
     });
     await page.click("#gains-write");
-    await page.waitForFunction(() => /each written and verified/.test(document.querySelector("#gains-text").textContent));
+    await page.waitForFunction(() =>
+      /each written and verified/.test(document.querySelector("#gains-text").textContent),
+    );
   } finally {
     await page.close();
   }
@@ -378,13 +394,19 @@ test("raw frames: the console's polling hidden by default, filters by ID, messag
     await page.selectOption("#raw-message", "position_feedback");
     await page.selectOption("#raw-dir", "rx");
     await page.waitForFunction(() => document.querySelectorAll("#raw-table tbody tr").length > 0);
-    const rows = await page.locator("#raw-table tbody tr").evaluateAll((trs) =>
-      trs.map((tr) => [...tr.children].map((td) => td.textContent)),
+    const rows = await page
+      .locator("#raw-table tbody tr")
+      .evaluateAll((trs) => trs.map((tr) => [...tr.children].map((td) => td.textContent)));
+    assert.ok(
+      rows.every(([, dir, id, name]) => dir === "received" && id === "1" && name === "position_feedback"),
+      JSON.stringify(rows.slice(0, 3)),
     );
-    assert.ok(rows.every(([, dir, id, name]) => dir === "received" && id === "1" && name === "position_feedback"), JSON.stringify(rows.slice(0, 3)));
     await page.check("#raw-pause");
     const first = await page.textContent("#raw-table tbody tr:first-child");
-    await page.waitForFunction((n) => window.dashboard.frames.length > n + 50, await page.evaluate(() => window.dashboard.frames.length));
+    await page.waitForFunction(
+      (n) => window.dashboard.frames.length > n + 50,
+      await page.evaluate(() => window.dashboard.frames.length),
+    );
     assert.equal(await page.textContent("#raw-table tbody tr:first-child"), first, "paused display");
     await page.uncheck("#raw-pause");
     await page.selectOption("#raw-message", "");
@@ -426,16 +448,27 @@ test("the main plot draws every motor's series while three motors move (pixels c
   const page = await fresh();
   try {
     // all three turning: their samples interleave on the shared time axis
-    for (const id of [1, 2, 3]) await page.evaluate((id) => window.dashboard.link.request("run", { id, rpm: 20 + 10 * id, ramp: 0.1 }), id);
+    for (const id of [1, 2, 3])
+      await page.evaluate((id) => window.dashboard.link.request("run", { id, rpm: 20 + 10 * id, ramp: 0.1 }), id);
     await page.click("nav button[data-view=plot]");
     await page.waitForFunction(() => window.dashboard.overlay.plot?.data[0].length > 100);
     const colours = ["#2457c5", "#d97706", "#059669"]; // the three position series
     await page.mouse.move(5, 5); // the cursor away from the plot: the legend shows the latest values
-    const legend = await page.locator("#main-plot .u-legend .u-series").evaluateAll((rows) =>
-      rows.slice(1).map((row) => [row.querySelector(".u-label").textContent, row.querySelector(".u-value").textContent]),
+    const legend = await page
+      .locator("#main-plot .u-legend .u-series")
+      .evaluateAll((rows) =>
+        rows
+          .slice(1)
+          .map((row) => [row.querySelector(".u-label").textContent, row.querySelector(".u-value").textContent]),
+      );
+    assert.deepEqual(
+      legend.map(([label]) => label),
+      ["ID 1 position", "ID 2 position", "ID 3 position"],
     );
-    assert.deepEqual(legend.map(([label]) => label), ["ID 1 position", "ID 2 position", "ID 3 position"]);
-    assert.ok(legend.every(([, value]) => /^-?[\d,]+\.\d+$/.test(value)), `legend shows latest values: ${JSON.stringify(legend)}`);
+    assert.ok(
+      legend.every(([, value]) => /^-?[\d,]+\.\d+$/.test(value)),
+      `legend shows latest values: ${JSON.stringify(legend)}`,
+    );
     const pixels = await countPixels(page, "#main-plot", colours);
     for (const c of colours) assert.ok(pixels[c] > 400, `every series is drawn as a line: ${JSON.stringify(pixels)}`);
     // any signal: speed and current on their own axes
@@ -443,16 +476,24 @@ test("the main plot draws every motor's series while three motors move (pixels c
     await page.locator("#plot-signals input[value=current]").check();
     await page.locator("#plot-signals input[value=error]").check();
     await page.waitForFunction(() => window.dashboard.overlay.plot?.series.length === 1 + 3 * 4);
-    const axes = await page.evaluate(() => window.dashboard.overlay.plot.axes.slice(1).map((a) => `${a.scale}:${a.label}:${a.side}`));
+    const axes = await page.evaluate(() =>
+      window.dashboard.overlay.plot.axes.slice(1).map((a) => `${a.scale}:${a.label}:${a.side}`),
+    );
     assert.deepEqual(axes, ["deg:°:3", "rpm:RPM:1", "amp:A:1"], "one axis per unit, ° on the left");
     // pause, export
     await page.click("#plot-pause");
     const frozen = await page.evaluate(() => window.dashboard.overlay.plot.data[0].length);
-    await page.waitForFunction((n) => window.dashboard.samplesReceived > n + 50, await page.evaluate(() => window.dashboard.samplesReceived));
+    await page.waitForFunction(
+      (n) => window.dashboard.samplesReceived > n + 50,
+      await page.evaluate(() => window.dashboard.samplesReceived),
+    );
     assert.equal(await page.evaluate(() => window.dashboard.overlay.plot.data[0].length), frozen, "paused");
     await page.click("#plot-pause");
     const [csv] = await Promise.all([page.waitForEvent("download"), page.click("#plot-csv")]);
-    assert.match(readFileSync(await csv.path(), "utf8").split("\n")[0], /^motor_id,t_s,position_deg,target_deg,following_error_deg/);
+    assert.match(
+      readFileSync(await csv.path(), "utf8").split("\n")[0],
+      /^motor_id,t_s,position_deg,target_deg,following_error_deg/,
+    );
     const [png] = await Promise.all([page.waitForEvent("download"), page.click("#plot-png")]);
     assert.deepEqual([...readFileSync(await png.path()).subarray(1, 4)], [0x50, 0x4e, 0x47], "a PNG");
     for (const id of [1, 2, 3]) await page.evaluate((id) => window.dashboard.link.request("hold", { id }), id);
@@ -667,7 +708,8 @@ const offScreen = (p, width) =>
       if (e.closest(".hidden") || e.tagName === "OPTION" || e.tagName === "SCRIPT") continue;
       const r = e.getBoundingClientRect();
       if (r.width === 0 || r.height === 0) continue;
-      if (r.left < -1 || r.right > width + 1) out.push(`${e.tagName.toLowerCase()}#${e.id}.${e.className} ${Math.round(r.left)}..${Math.round(r.right)}`);
+      if (r.left < -1 || r.right > width + 1)
+        out.push(`${e.tagName.toLowerCase()}#${e.id}.${e.className} ${Math.round(r.left)}..${Math.round(r.right)}`);
     }
     return out.slice(0, 10);
   }, width);
@@ -688,13 +730,20 @@ test("phone 390x844: nothing off-screen in any view, 'connected' on one line, E-
     assert.equal(await phone.textContent("#status"), "connected");
     assert.ok(status.height < 30, `"connected" on one line (${status.height} px high)`);
     const move = await phone.locator("#motor-1 button.move").boundingBox();
-    assert.ok(move.y + move.height <= 844, `the first motor's Move is on the first screen (at ${Math.round(move.y)} px)`);
+    assert.ok(
+      move.y + move.height <= 844,
+      `the first motor's Move is on the first screen (at ${Math.round(move.y)} px)`,
+    );
     await tour(phone, async (view) => {
       const width = await phone.evaluate(() => document.documentElement.scrollWidth);
       assert.ok(width <= 390, `${view}: page is ${width} px wide`);
       assert.deepEqual(await offScreen(phone, 390), [], `${view}: elements off-screen`);
       const small = await phone.evaluate(() =>
-        [...document.querySelectorAll("button, select, input:not([type=checkbox]):not([type=radio]), label:has(input[type=checkbox])")]
+        [
+          ...document.querySelectorAll(
+            "button, select, input:not([type=checkbox]):not([type=radio]), label:has(input[type=checkbox])",
+          ),
+        ]
           .filter((e) => e.offsetParent !== null && !e.closest(".u-legend"))
           .map((e) => [e.id || e.textContent.trim().slice(0, 20) || e.tagName, e.getBoundingClientRect()])
           .filter(([, r]) => r.width > 0 && (r.height < 40 || r.width < 40))
@@ -707,7 +756,10 @@ test("phone 390x844: nothing off-screen in any view, 'connected' on one line, E-
     await phone.mouse.wheel(0, 3000);
     await phone.waitForFunction(() => window.scrollY > 0);
     const estop = await phone.locator("#estop").boundingBox();
-    assert.ok(estop.y >= 0 && estop.y + estop.height <= 844 && estop.x + estop.width <= 390, "E-STOP stays on screen when scrolled");
+    assert.ok(
+      estop.y >= 0 && estop.y + estop.height <= 844 && estop.x + estop.width <= 390,
+      "E-STOP stays on screen when scrolled",
+    );
   } finally {
     await phone.close();
   }
@@ -802,7 +854,10 @@ for (const [what, count] of [
         { timeout: 20000 },
       );
       // anything from before the stop would have run by now (about 300 ms of samples later)
-      await page.waitForFunction((n) => window.dashboard.samplesReceived > n + 100, await page.evaluate(() => window.dashboard.samplesReceived));
+      await page.waitForFunction(
+        (n) => window.dashboard.samplesReceived > n + 100,
+        await page.evaluate(() => window.dashboard.samplesReceived),
+      );
       assert.deepEqual(
         await controls(page),
         { 1: "off", 2: "off", 3: "off" },
@@ -832,7 +887,10 @@ for (const [what, count] of [
       assert.match(stale.error, /before emergency stop/, "a command from before the stop is refused");
       // the state stays: every card says "stopped" and the banner stays up until a new command
       const states = () => page.evaluate(() => [...document.querySelectorAll(".card")].map((c) => c.dataset.state));
-      await page.waitForFunction((n) => window.dashboard.samplesReceived > n + 200, await page.evaluate(() => window.dashboard.samplesReceived));
+      await page.waitForFunction(
+        (n) => window.dashboard.samplesReceived > n + 200,
+        await page.evaluate(() => window.dashboard.samplesReceived),
+      );
       assert.deepEqual(await states(), ["stopped", "stopped", "stopped"]);
       assert.ok(await page.isVisible("#stop-banner"), "the stop banner stays");
       assert.match(await page.textContent("#stop-banner"), /STOPPED by the emergency stop/);
@@ -991,7 +1049,9 @@ const SERIAL_BRIDGE = () => {
     },
     close: async () => {},
   };
-  Object.defineProperty(navigator, "serial", { value: { requestPort: async () => port, getPorts: async () => [port] } });
+  Object.defineProperty(navigator, "serial", {
+    value: { requestPort: async () => port, getPorts: async () => [port] },
+  });
 };
 
 test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 queued moves turns every motor off, confirmed", async () => {
@@ -1012,13 +1072,19 @@ test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 qu
     });
     await direct.addInitScript(SERIAL_BRIDGE);
     await direct.goto(site.url);
-    await direct.waitForFunction(() => window.dashboard.mode === "direct" && !document.querySelector("#connect").disabled);
+    await direct.waitForFunction(
+      () => window.dashboard.mode === "direct" && !document.querySelector("#connect").disabled,
+    );
     assert.match(await direct.textContent("#mode"), /direct/);
     await direct.selectOption("#direct-baud", "115200");
     await direct.click("#connect");
     await direct.waitForFunction(() => document.querySelectorAll(".card").length === 3, null, { timeout: 30000 });
     assert.deepEqual(await direct.evaluate(() => window.__serialOpened.baudRate), 115200);
-    await direct.waitForFunction(() => /found 3 motor/.test(document.querySelector("#discover-text").textContent), null, { timeout: 30000 });
+    await direct.waitForFunction(
+      () => /found 3 motor/.test(document.querySelector("#discover-text").textContent),
+      null,
+      { timeout: 30000 },
+    );
     await direct.waitForFunction(() => [1, 2, 3].every((id) => window.dashboard.motors.get(id)?.series.t.length > 5));
     await shot(direct, "direct-mode.png");
     // 300 moves queued in the TS client, then the stop
@@ -1026,24 +1092,48 @@ test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 qu
       const moves = [];
       for (let n = 0; n < 300; n++) {
         const id = 1 + (n % 3);
-        moves.push(window.dashboard.link.request("move", { id, degrees: (n % 40) * 10 - 200, rpm: 300 }).then(() => "sent", (e) => e.name));
+        moves.push(
+          window.dashboard.link.request("move", { id, degrees: (n % 40) * 10 - 200, rpm: 300 }).then(
+            () => "sent",
+            (e) => e.name,
+          ),
+        );
       }
       document.querySelector("#estop").click();
       const outcomes = await Promise.all(moves);
-      return { cancelled: outcomes.filter((o) => o === "CancelledError").length, sent: outcomes.filter((o) => o === "sent").length };
+      return {
+        cancelled: outcomes.filter((o) => o === "CancelledError").length,
+        sent: outcomes.filter((o) => o === "sent").length,
+      };
     });
-    await direct.waitForFunction(() => (document.querySelector("#estop").dataset.lastResult ?? "").startsWith("{"), null, { timeout: 10000 });
-    assert.deepEqual(JSON.parse(await direct.getAttribute("#estop", "data-last-result")), { 1: "off", 2: "off", 3: "off" }, "confirmed by read-back");
+    await direct.waitForFunction(
+      () => (document.querySelector("#estop").dataset.lastResult ?? "").startsWith("{"),
+      null,
+      { timeout: 10000 },
+    );
+    assert.deepEqual(
+      JSON.parse(await direct.getAttribute("#estop", "data-last-result")),
+      { 1: "off", 2: "off", 3: "off" },
+      "confirmed by read-back",
+    );
     assert.ok(result.cancelled >= 297, `the queued moves were cancelled, not sent: ${JSON.stringify(result)}`);
     // read back again from the bus after the queue had every chance to run: still off
-    await direct.waitForFunction((n) => window.dashboard.samplesReceived > n + 60, await direct.evaluate(() => window.dashboard.samplesReceived));
+    await direct.waitForFunction(
+      (n) => window.dashboard.samplesReceived > n + 60,
+      await direct.evaluate(() => window.dashboard.samplesReceived),
+    );
     const control = await direct.evaluate(async () => {
       const out = {};
-      for (const id of [1, 2, 3]) out[id] = (await window.dashboard.link.request("read_settings", { id })).settings.control;
+      for (const id of [1, 2, 3])
+        out[id] = (await window.dashboard.link.request("read_settings", { id })).settings.control;
       return out;
     });
     assert.deepEqual(control, { 1: "off", 2: "off", 3: "off" });
-    assert.deepEqual(await direct.evaluate(() => [...document.querySelectorAll(".card")].map((c) => c.dataset.state)), ["stopped", "stopped", "stopped"]);
+    assert.deepEqual(await direct.evaluate(() => [...document.querySelectorAll(".card")].map((c) => c.dataset.state)), [
+      "stopped",
+      "stopped",
+      "stopped",
+    ]);
     assert.ok(await direct.isVisible("#stop-banner"));
   } finally {
     await direct.close();
@@ -1054,17 +1144,21 @@ test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 qu
 });
 
 /** Visible English left on a page shown in Korean: words of 2+ Latin letters outside code, units, IDs and names. */
-const ALLOWED = /\b(ID|RPM|bps|ms|µs|s|A|B|Kp|Ki|Kd|CSV|PNG|JSON|EEPROM|Web Serial|Esc|RESET|nurimc|dashboard|MC|BLMC-H|sim|Chrome|Edge|https?|localhost|USB|TCP)\b/g;
+const ALLOWED =
+  /\b(ID|RPM|bps|ms|µs|s|A|B|Kp|Ki|Kd|CSV|PNG|JSON|EEPROM|Web Serial|Esc|RESET|nurimc|dashboard|MC|BLMC-H|sim|Chrome|Edge|https?|localhost|USB|TCP)\b/g;
 const englishLeft = (p) =>
   p.evaluate((allowed) => {
     const pattern = new RegExp(allowed, "g");
     const out = new Set();
-    const visible = (e) => e && !e.closest(".hidden, code, kbd, script, style, .u-axis") && e.getClientRects().length > 0;
+    const visible = (e) =>
+      e && !e.closest(".hidden, code, kbd, script, style, .u-axis") && e.getClientRects().length > 0;
     const walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);
     const texts = [];
-    for (let node = walker.nextNode(); node; node = walker.nextNode()) if (visible(node.parentElement)) texts.push(node.textContent);
+    for (let node = walker.nextNode(); node; node = walker.nextNode())
+      if (visible(node.parentElement)) texts.push(node.textContent);
     for (const e of document.querySelectorAll("input[placeholder]")) if (visible(e)) texts.push(e.placeholder);
-    for (const e of document.querySelectorAll("select")) if (visible(e)) texts.push(e.selectedOptions[0]?.textContent ?? "");
+    for (const e of document.querySelectorAll("select"))
+      if (visible(e)) texts.push(e.selectedOptions[0]?.textContent ?? "");
     for (const text of texts) {
       const left = text.replace(pattern, " ").replace(/[a-z_]+(?:[_-][a-z]+)+/g, " "); // message and setting names are code
       for (const word of left.match(/[A-Za-z]{2,}/g) ?? []) out.add(`${word} (in "${text.trim().slice(0, 60)}")`);
@@ -1083,7 +1177,15 @@ test("Korean: a Korean browser gets every view in Korean (vendor terms), the swi
       assert.deepEqual(await englishLeft(page), [], `${view}: English left on the Korean page`);
       if (view === "settings") {
         const names = await page.locator("#settings-table td.name span").allTextContents();
-        for (const term of ["위치제어기 Kp", "속도제어기 Kp", "위치제어 정격전류", "감속비", "분해능", "통신 응답시간", "모터 정격속도"])
+        for (const term of [
+          "위치제어기 Kp",
+          "속도제어기 Kp",
+          "위치제어 정격전류",
+          "감속비",
+          "분해능",
+          "통신 응답시간",
+          "모터 정격속도",
+        ])
           assert.ok(names.includes(term), `the vendor's term ${term} in ${names}`);
       }
       await shot(page, `ko-${view}.png`);
@@ -1092,14 +1194,20 @@ test("Korean: a Korean browser gets every view in Korean (vendor terms), the swi
     await page.locator("#motor-1 input.to").fill("700");
     await page.locator("#motor-1 button.move").click();
     assert.match(await page.locator("#messages .message:last-child .text").textContent(), /장치 범위/);
-    const refused = await page.evaluate(() => window.dashboard.link.request("move", { id: 1, degrees: 700, rpm: 60 }).catch((e) => e.message));
+    const refused = await page.evaluate(() =>
+      window.dashboard.link.request("move", { id: 1, degrees: 700, rpm: 60 }).catch((e) => e.message),
+    );
     assert.match(refused, /655\.33/, "the server speaks English");
     await page.click("nav button[data-view=setup]");
     await page.selectOption("#setup-motor", "3");
     await page.fill("#new-id", "2");
     await page.click("#change-id");
     await page.waitForFunction(() => /이미 버스에서 응답/.test(document.querySelector("#messages").textContent));
-    assert.deepEqual(await englishLeft(page), [], "the server's English error is said in Korean (the original kept in a code span)");
+    assert.deepEqual(
+      await englishLeft(page),
+      [],
+      "the server's English error is said in Korean (the original kept in a code span)",
+    );
     await page.click("nav button[data-view=motors]");
     // switch to English and back
     await page.selectOption("#lang", "en");
@@ -1111,7 +1219,11 @@ test("Korean: a Korean browser gets every view in Korean (vendor terms), the swi
     await page.selectOption("#lang", "en");
     await page.reload();
     await page.waitForFunction(() => window.dashboard?.connected);
-    assert.equal(await page.textContent("nav button[data-view=motors]"), "Motors", "the choice is remembered over the browser's language");
+    assert.equal(
+      await page.textContent("nav button[data-view=motors]"),
+      "Motors",
+      "the choice is remembered over the browser's language",
+    );
     await page.selectOption("#lang", "ko");
     await page.close();
   } finally {

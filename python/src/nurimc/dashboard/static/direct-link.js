@@ -1,3 +1,5 @@
+import { MAX_ID } from "./core/limits.js";
+
 // Direct mode: no server; the page drives the bus itself through Web Serial and the TypeScript
 // library (nurimc.browser.js next to this page). It offers the same requests as the server for
 // discovery at one rate, live state, motion and the emergency stop, with the same safety rules:
@@ -6,7 +8,6 @@
 // back, sent again to a motor that does not read off, for up to ESTOP_VERIFY_MS.
 const LIVE_HZ = 100;
 const ESTOP_VERIFY_MS = 2000; // as the server: a controller writing EEPROM ignores frames for up to 300 ms
-const MAX_ID = 254;
 
 export class DirectLink {
   constructor(lib, baudRate) {
@@ -100,7 +101,14 @@ export class DirectLink {
         .catch(() => null);
       found.push(info);
       this.found.add(id);
-      this.emit("progress", { rate: this.baudRate, index: 0, total: 1, walking_id: id, found: found.map((m) => m.id), motors: found });
+      this.emit("progress", {
+        rate: this.baudRate,
+        index: 0,
+        total: 1,
+        walking_id: id,
+        found: found.map((m) => m.id),
+        motors: found,
+      });
     }
     return { motors: found };
   }

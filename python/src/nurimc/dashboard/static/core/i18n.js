@@ -104,7 +104,7 @@ const ERROR_RULES = [
   [/no answer/i, "err.noAnswer", (m) => ({ id: m.match(/ID (\d+)/)?.[1] ?? "?" })],
   [/server unreachable|connection to the server was lost/i, "err.unreachable"],
   [/already answers|is taken|taken/i, "err.idTaken"],
-  [/655\.33/, "err.moveRange"],
+  [/outside the device|device.s range|degrees .*out of range/i, "err.moveRange"],
   [/out of range|must be|between/i, "err.range"],
   [/simulated bus/i, "err.simPort"],
   [/needs the server/i, "err.needsServer"],

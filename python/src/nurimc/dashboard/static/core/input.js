@@ -9,7 +9,11 @@ export const looksNumeric = (raw) => NUMBER.test(raw);
  * The number in `input` (an <input>), or an InputProblem naming `label` and what is wrong.
  * Options: min, max, integer, above (strictly greater), nonzero.
  */
-export function readNumber(input, label, { min = -Infinity, max = Infinity, integer = false, above = null, nonzero = false } = {}) {
+export function readNumber(
+  input,
+  label,
+  { min = -Infinity, max = Infinity, integer = false, above = null, nonzero = false } = {},
+) {
   const raw = String(input.value ?? "").trim();
   const fail = (key, params = {}) => {
     input.setAttribute?.("aria-invalid", "true");

@@ -1,8 +1,13 @@
 // Every limit, rate and unit the page uses, from the generated spec (spec/*.json via
 // `make generate`); e2e/unit/limits.test.mjs fails if a view types one of them again.
-import { BAUD_RATES, HOST_TIMING, LIMITS, SETTINGS } from "../generated/spec.js";
+import { BAUD_RATES, HOST_TIMING, LIMITS, PROFILES, SETTINGS } from "../generated/spec.js";
 
-export { BAUD_RATES, HOST_TIMING, LIMITS, SETTINGS };
+export { BAUD_RATES, HOST_TIMING, LIMITS, PROFILES, SETTINGS };
+
+/** Controller IDs 0..254 (255 is the broadcast address; document §4). Not in the generated spec.js yet: the one place it is typed. */
+export const MAX_ID = 254;
+/** The longest EEPROM busy window of any product (a settings write keeps a controller deaf this long). */
+export const BUSY_WINDOW_MS = Math.max(...Object.values(PROFILES).map((p) => p.busyWindowMs));
 
 /** Moves are given in the device's frame: a target beyond this is refused (±655.33°). */
 export const MOVE_LIMIT = LIMITS.positionDeg;

@@ -11,8 +11,7 @@ export function motorState(motor, now) {
   if (motor.stopped) return "stopped";
   if (motor.busy > 0) return "busy";
   const silent = motor.lastSampleAt == null ? motor.lastErrorAt != null : now - motor.lastSampleAt > NOT_ANSWERING_S;
-  if (silent || (motor.lastErrorAt != null && motor.lastErrorAt > (motor.lastSampleAt ?? -Infinity)))
-    return "silent";
+  if (silent || (motor.lastErrorAt != null && motor.lastErrorAt > (motor.lastSampleAt ?? -Infinity))) return "silent";
   if (motor.control === "off") return "off";
   if (motor.speed != null && Math.abs(motor.speed) > MOVING_RPM) return "moving";
   if (motor.control === "on") return "on";

@@ -49,9 +49,7 @@ export function alignTracks(tracks, now = null) {
         const a = track.v[j - 1];
         const b = track.v[j];
         out[i] =
-          a == null || b == null
-            ? null
-            : a + ((b - a) * (times[i] - track.t[j - 1])) / (track.t[j] - track.t[j - 1]);
+          a == null || b == null ? null : a + ((b - a) * (times[i] - track.t[j - 1])) / (track.t[j] - track.t[j - 1]);
       }
     }
     return out;

@@ -2,7 +2,8 @@
 // and the same {placeholders}). Terms follow docs/glossary.md.
 export default {
   "app.title": "nurimc console",
-  "app.hint": "Keyboard: <kbd>Esc</kbd> is the emergency stop, anywhere on the page. After a stop nothing moves until you give a new command.",
+  "app.hint":
+    "Keyboard: <kbd>Esc</kbd> is the emergency stop, anywhere on the page. After a stop nothing moves until you give a new command.",
   "lang.label": "Language",
   "mode.server": "server",
   "mode.serverSim": "server · simulated bus",
@@ -11,7 +12,8 @@ export default {
   "status.connected": "connected",
   "status.notConnected": "not connected",
   "status.noBundle": "direct mode needs nurimc.browser.js next to this page (see docs/dashboard.md)",
-  "status.noWebSerial": "this browser has no Web Serial: use Chrome or Edge on https:// or http://localhost, or run nurimc dashboard",
+  "status.noWebSerial":
+    "this browser has no Web Serial: use Chrome or Edge on https:// or http://localhost, or run nurimc dashboard",
   "status.directReady": "no server: connect a serial port to drive the bus from this page",
   "status.directConnected": "connected at {rate} bps",
   "status.startFailed": "start failed: {why}",
@@ -30,7 +32,8 @@ export default {
   "estop.notSentDirect": "E-STOP NOT SENT: no serial port is connected. Cut the motors' power now.",
   "estop.notConfirmed": "E-STOP NOT CONFIRMED: the server did not answer within {s} s. Cut the motors' power now.",
   "estop.failed": "E-STOP may not have reached the motors ({why}): cut the power",
-  "estop.done": "STOPPED by the emergency stop at {time}: control off sent at {rates} bps and read back off for every motor.",
+  "estop.done":
+    "STOPPED by the emergency stop at {time}: control off sent at {rates} bps and read back off for every motor.",
   "estop.unconfirmed": "EMERGENCY STOP sent at {rates} bps, but not confirmed for {list}: cut the power.",
   "estop.until": "Nothing moves until you give a new command.",
   "estop.dismiss": "Hide",
@@ -48,7 +51,7 @@ export default {
   "msg.notJson": "{name} is not JSON ({why})",
   "input.notNumber": "not a number",
   "input.empty": "empty; give a number",
-  "input.notNumberQuoted": "\"{raw}\" is not a number",
+  "input.notNumberQuoted": '"{raw}" is not a number',
   "input.notFinite": "{raw} is not a finite number",
   "input.notWhole": "{raw} is not a whole number",
   "input.above": "{raw} must be above {above}",
@@ -91,7 +94,8 @@ export default {
   "motors.zero": "Set zero",
   "motors.zeroTitle": "make the current position the device's zero (its range starts here)",
   "motors.zeroDone": "ID {id}: the current position is now 0° (device reads {device}°)",
-  "motors.outsideRange": "the target {aim}° is outside the device's range ±{limit}° (moves are in the device's frame; it is at {device}°): move back or use Set zero here first",
+  "motors.outsideRange":
+    "the target {aim}° is outside the device's range ±{limit}° (moves are in the device's frame; it is at {device}°): move back or use Set zero here first",
   "motors.moveFailed": "ID {id} move",
   "motors.runFailed": "ID {id} run",
   "motors.releaseFailed": "ID {id} release",
@@ -118,7 +122,8 @@ export default {
   "plot.png": "Export PNG",
   "plot.signals": "signals",
   "plot.motors": "motors",
-  "plot.hint": "each unit on its own axis; drag to zoom (pauses), double-click to reset; the legend shows the latest values, or those under the cursor",
+  "plot.hint":
+    "each unit on its own axis; drag to zoom (pauses), double-click to reset; the legend shows the latest values, or those under the cursor",
   "bar.rate": "{n} readings/s",
   "bar.errors": "{n} errors",
   "bar.stale": "{n} stale answers",
@@ -148,7 +153,8 @@ export default {
   "step.recording": "recording…",
   "step.seconds": "seconds since the step",
   "step.stepping": "stepping… (drawn as it records)",
-  "step.figures": "rise time (10–90 %): {rise} · overshoot: {overshoot} % · settling (±2 %): {settling} · final error: {error} ° · {settled}",
+  "step.figures":
+    "rise time (10–90 %): {rise} · overshoot: {overshoot} % · settling (±2 %): {settling} · final error: {error} ° · {settled}",
   "step.notReached": "not reached",
   "step.settled": "settled",
   "step.notSettled": "not settled",
@@ -167,7 +173,8 @@ export default {
   "seq.stop": "Stop",
   "seq.save": "Save JSON",
   "seq.load": "Load JSON",
-  "seq.hint": "Steps run one after another; a move is sent and the next step follows at once (add a wait to let it arrive). The emergency stop ends a run.",
+  "seq.hint":
+    "Steps run one after another; a move is sent and the next step follows at once (add a wait to let it arrive). The emergency stop ends a run.",
   "seq.remove": "remove this step",
   "seq.up": "move up",
   "seq.kind.move": "move",
@@ -207,7 +214,7 @@ export default {
   "setup.type": "type",
   "setup.toConfirm": "to confirm",
   "setup.factoryReset": "Factory reset",
-  "setup.resetHint": "erases every setting; the motor comes back as ID 0 at 9600 bps",
+  "setup.resetHint": "erases every setting; the motor comes back as ID 0 at the factory rate",
   "setup.changingId": "changing the ID…",
   "setup.idChanged": "ID {id} is now ID {newId} (verified)",
   "setup.changingBaud": "changing the baud rate…",

@@ -2,7 +2,8 @@
 // 정격전류, 감속비, 분해능, 통신 응답시간, 통신속도, 제어 방향, 위치제어 모드 (docs/glossary.md).
 export default {
   "app.title": "nurimc 콘솔",
-  "app.hint": "키보드: <kbd>Esc</kbd> 키는 페이지 어디서나 비상 정지입니다. 정지 후에는 새 명령을 내릴 때까지 아무것도 움직이지 않습니다.",
+  "app.hint":
+    "키보드: <kbd>Esc</kbd> 키는 페이지 어디서나 비상 정지입니다. 정지 후에는 새 명령을 내릴 때까지 아무것도 움직이지 않습니다.",
   "lang.label": "언어",
   "mode.server": "서버",
   "mode.serverSim": "서버 · 시뮬레이션 버스",
@@ -11,7 +12,8 @@ export default {
   "status.connected": "연결됨",
   "status.notConnected": "연결 안 됨",
   "status.noBundle": "직접 연결 모드에는 이 페이지 옆에 nurimc.browser.js 파일이 필요합니다 (docs/dashboard.md 참고)",
-  "status.noWebSerial": "이 브라우저는 Web Serial을 지원하지 않습니다: https:// 또는 http://localhost 에서 Chrome이나 Edge를 쓰거나, nurimc dashboard 를 실행하세요",
+  "status.noWebSerial":
+    "이 브라우저는 Web Serial을 지원하지 않습니다: https:// 또는 http://localhost 에서 Chrome이나 Edge를 쓰거나, nurimc dashboard 를 실행하세요",
   "status.directReady": "서버 없음: 시리얼 포트를 연결하면 이 페이지에서 버스를 직접 제어합니다",
   "status.directConnected": "{rate} bps로 연결됨",
   "status.startFailed": "시작 실패: {why}",
@@ -30,7 +32,8 @@ export default {
   "estop.notSentDirect": "비상 정지 전송 실패: 연결된 시리얼 포트가 없습니다. 지금 모터 전원을 차단하세요.",
   "estop.notConfirmed": "비상 정지 확인 안 됨: 서버가 {s}초 안에 응답하지 않았습니다. 지금 모터 전원을 차단하세요.",
   "estop.failed": "비상 정지가 모터에 닿지 않았을 수 있습니다 ({why}): 전원을 차단하세요",
-  "estop.done": "{time}에 비상 정지로 정지됨: {rates} bps로 제어 꺼짐을 보냈고 모든 모터에서 꺼짐을 다시 읽어 확인했습니다.",
+  "estop.done":
+    "{time}에 비상 정지로 정지됨: {rates} bps로 제어 꺼짐을 보냈고 모든 모터에서 꺼짐을 다시 읽어 확인했습니다.",
   "estop.unconfirmed": "{rates} bps로 비상 정지를 보냈지만 {list}에서 확인되지 않았습니다: 전원을 차단하세요.",
   "estop.until": "새 명령을 내릴 때까지 아무것도 움직이지 않습니다.",
   "estop.dismiss": "숨기기",
@@ -48,7 +51,7 @@ export default {
   "msg.notJson": "{name} 파일은 JSON이 아닙니다 ({why})",
   "input.notNumber": "숫자가 아닙니다",
   "input.empty": "비어 있습니다; 숫자를 입력하세요",
-  "input.notNumberQuoted": "\"{raw}\"은(는) 숫자가 아닙니다",
+  "input.notNumberQuoted": '"{raw}"은(는) 숫자가 아닙니다',
   "input.notFinite": "{raw}은(는) 유한한 숫자가 아닙니다",
   "input.notWhole": "{raw}은(는) 정수가 아닙니다",
   "input.above": "{raw}: {above}보다 커야 합니다",
@@ -91,7 +94,8 @@ export default {
   "motors.zero": "위치 초기화",
   "motors.zeroTitle": "현재 위치를 장치의 0으로 만듭니다 (장치 위치 범위가 여기서 시작)",
   "motors.zeroDone": "아이디 {id}: 현재 위치가 이제 0°입니다 (장치 값 {device}°)",
-  "motors.outsideRange": "목표 {aim}°는 장치 범위 ±{limit}°를 벗어납니다 (이동은 장치 기준이며 현재 {device}°): 되돌아가거나 먼저 여기서 위치 초기화를 하세요",
+  "motors.outsideRange":
+    "목표 {aim}°는 장치 범위 ±{limit}°를 벗어납니다 (이동은 장치 기준이며 현재 {device}°): 되돌아가거나 먼저 여기서 위치 초기화를 하세요",
   "motors.moveFailed": "아이디 {id} 이동",
   "motors.runFailed": "아이디 {id} 회전",
   "motors.releaseFailed": "아이디 {id} 제어 끄기",
@@ -118,7 +122,8 @@ export default {
   "plot.png": "PNG 내보내기",
   "plot.signals": "신호",
   "plot.motors": "모터",
-  "plot.hint": "단위마다 축이 따로 있습니다; 끌어서 확대(일시 정지), 두 번 클릭하면 원래대로; 범례는 최신 값 또는 커서 위치의 값을 보여줍니다",
+  "plot.hint":
+    "단위마다 축이 따로 있습니다; 끌어서 확대(일시 정지), 두 번 클릭하면 원래대로; 범례는 최신 값 또는 커서 위치의 값을 보여줍니다",
   "bar.rate": "초당 {n}회 읽음",
   "bar.errors": "오류 {n}회",
   "bar.stale": "늦은 응답 {n}개",
@@ -148,7 +153,8 @@ export default {
   "step.recording": "기록 중…",
   "step.seconds": "계단 입력 후 초",
   "step.stepping": "계단 입력 중… (기록하면서 그립니다)",
-  "step.figures": "상승 시간 (10–90 %): {rise} · 오버슈트: {overshoot} % · 정착 시간 (±2 %): {settling} · 최종 오차: {error} ° · {settled}",
+  "step.figures":
+    "상승 시간 (10–90 %): {rise} · 오버슈트: {overshoot} % · 정착 시간 (±2 %): {settling} · 최종 오차: {error} ° · {settled}",
   "step.notReached": "도달 못 함",
   "step.settled": "정착함",
   "step.notSettled": "정착 안 함",
@@ -167,7 +173,8 @@ export default {
   "seq.stop": "멈춤",
   "seq.save": "JSON 저장",
   "seq.load": "JSON 불러오기",
-  "seq.hint": "단계는 차례로 실행됩니다; 이동 명령을 보낸 뒤 바로 다음 단계로 넘어갑니다 (도착을 기다리려면 대기를 넣으세요). 비상 정지는 실행을 끝냅니다.",
+  "seq.hint":
+    "단계는 차례로 실행됩니다; 이동 명령을 보낸 뒤 바로 다음 단계로 넘어갑니다 (도착을 기다리려면 대기를 넣으세요). 비상 정지는 실행을 끝냅니다.",
   "seq.remove": "이 단계 지우기",
   "seq.up": "위로",
   "seq.kind.move": "이동",
@@ -207,7 +214,7 @@ export default {
   "setup.type": "확인하려면",
   "setup.toConfirm": "를 입력하세요",
   "setup.factoryReset": "공장 초기화",
-  "setup.resetHint": "모든 설정을 지웁니다; 모터는 아이디 0, 9600 bps로 돌아옵니다",
+  "setup.resetHint": "모든 설정을 지웁니다; 모터는 아이디 0, 공장 출하 통신속도로 돌아옵니다",
   "setup.changingId": "아이디를 바꾸는 중…",
   "setup.idChanged": "아이디 {id}가 이제 아이디 {newId}입니다 (확인함)",
   "setup.changingBaud": "통신속도를 바꾸는 중…",

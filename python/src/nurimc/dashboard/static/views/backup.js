@@ -1,6 +1,5 @@
 // Backup / restore: every setting of every motor to the CLI's JSON format and back.
-import { $ } from "../core/dom.js";
-import { download } from "../core/dom.js";
+import { $, download } from "../core/dom.js";
 import { t } from "../core/i18n.js";
 import { InputProblem } from "../core/input.js";
 import { dashboard } from "../core/store.js";
@@ -30,7 +29,9 @@ export function startBackup() {
         throw new InputProblem(t("msg.notJson", { name: file.name, why: error.message }));
       }
       const result = await ask("restore", { document: document_ });
-      $("#backup-text").textContent = result.changed.length ? `${t("backup.restored")}\n${result.changed.join("\n")}` : t("backup.nothing");
+      $("#backup-text").textContent = result.changed.length
+        ? `${t("backup.restored")}\n${result.changed.join("\n")}`
+        : t("backup.nothing");
     },
   );
 }

@@ -135,7 +135,9 @@ function fillDirectRates() {
   const rates = $("#direct-baud");
   const chosen = Number(rates.value) || DEFAULT_BAUD;
   rates.replaceChildren(
-    ...BAUD_RATES.map((rate) => build("option", { value: rate, textContent: `${rate} bps`, selected: rate === chosen })),
+    ...BAUD_RATES.map((rate) =>
+      build("option", { value: rate, textContent: `${rate} bps`, selected: rate === chosen }),
+    ),
   );
 }
 

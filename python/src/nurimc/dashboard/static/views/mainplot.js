@@ -17,7 +17,15 @@ export const SIGNALS = [
   { key: "current", unit: "A", digits: 1 },
 ];
 
-const main = { plot: null, dirty: false, paused: false, zoomed: false, series: [], signals: new Set(["position"]), hidden: new Set() };
+const main = {
+  plot: null,
+  dirty: false,
+  paused: false,
+  zoomed: false,
+  series: [],
+  signals: new Set(["position"]),
+  hidden: new Set(),
+};
 dashboard.overlay = main;
 
 const visible = () => !$("#view-plot").classList.contains("hidden");
@@ -103,11 +111,32 @@ function exportCsv() {
   for (const [id, motor] of dashboard.motors) {
     const s = motor.series;
     for (let i = 0; i < s.t.length; i++)
-      rows.push([id, s.t[i], s.position[i], s.target[i], signalValue(s, "error", i), s.device[i], s.speed[i], s.current[i]]);
+      rows.push([
+        id,
+        s.t[i],
+        s.position[i],
+        s.target[i],
+        signalValue(s, "error", i),
+        s.device[i],
+        s.speed[i],
+        s.current[i],
+      ]);
   }
   download(
     "nurimc-motors.csv",
-    csv(["motor_id", "t_s", "position_deg", "target_deg", "following_error_deg", "device_position_deg", "speed_rpm", "current_a"], rows),
+    csv(
+      [
+        "motor_id",
+        "t_s",
+        "position_deg",
+        "target_deg",
+        "following_error_deg",
+        "device_position_deg",
+        "speed_rpm",
+        "current_a",
+      ],
+      rows,
+    ),
     "text/csv",
   );
 }

@@ -6,7 +6,18 @@ import { dashboard, emit } from "../core/store.js";
 
 const MAX_TOASTS = 4;
 // ops that command motion or write settings: the first one after an emergency stop ends its banner
-const COMMANDS = new Set(["move", "run", "hold", "set", "step", "restore", "set_zero", "change_id", "change_baud", "factory_reset"]);
+const COMMANDS = new Set([
+  "move",
+  "run",
+  "hold",
+  "set",
+  "step",
+  "restore",
+  "set_zero",
+  "change_id",
+  "change_baud",
+  "factory_reset",
+]);
 
 export function say(text, kind = "info", detail = "") {
   const box = $("#messages");
@@ -17,7 +28,12 @@ export function say(text, kind = "info", detail = "") {
     box.append(same);
     return same;
   }
-  const close = build("button", { className: "close", textContent: "×", title: t("msg.close"), ariaLabel: t("msg.close") });
+  const close = build("button", {
+    className: "close",
+    textContent: "×",
+    title: t("msg.close"),
+    ariaLabel: t("msg.close"),
+  });
   const toast = build(
     "div",
     { className: `message ${kind}` },
@@ -48,7 +64,8 @@ export function act(what, fn) {
     } catch (error) {
       if (error.reported) return;
       const prefix = typeof what === "function" ? what() : what;
-      if (error instanceof InputProblem) say(`${prefix}: ${error.message}`, "error"); // the page's own words, already in its language
+      if (error instanceof InputProblem)
+        say(`${prefix}: ${error.message}`, "error"); // the page's own words, already in its language
       else sayError(prefix, error.message);
     }
   };

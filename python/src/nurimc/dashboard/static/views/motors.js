@@ -3,7 +3,7 @@
 import { $, $$, build, download } from "../core/dom.js";
 import { num, onLanguage, t } from "../core/i18n.js";
 import { InputProblem, readNumber } from "../core/input.js";
-import { BAUD_RATES, DEVICE_LIMIT, MOVE_LIMIT, RPM_MAX, RPM_MIN } from "../core/limits.js";
+import { BAUD_RATES, BUSY_WINDOW_MS, DEVICE_LIMIT, MOVE_LIMIT, RPM_MAX, RPM_MIN } from "../core/limits.js";
 import { motorState } from "../core/motorstate.js";
 import { csv, lastOf, trim, windowStart } from "../core/series.js";
 import { dashboard, emit, on } from "../core/store.js";
@@ -195,7 +195,11 @@ function makeCard(info) {
         const aim = by.checked && device != null ? device + degrees : degrees;
         if (Math.abs(aim) > MOVE_LIMIT) {
           throw new InputProblem(
-            t("motors.outsideRange", { aim: num(aim, 2), limit: MOVE_LIMIT, device: device == null ? "?" : num(device, 2) }),
+            t("motors.outsideRange", {
+              aim: num(aim, 2),
+              limit: MOVE_LIMIT,
+              device: device == null ? "?" : num(device, 2),
+            }),
           );
         }
         await ask("move", { id, degrees, rpm, relative: by.checked });
@@ -251,7 +255,17 @@ function makeCard(info) {
     ),
   );
   card.append(
-    build("div", { className: "controls move-row" }, toText, target, atText, moveRpm, rpmText, build("label", { className: "by-label" }, by, byLabel), move),
+    build(
+      "div",
+      { className: "controls move-row" },
+      toText,
+      target,
+      atText,
+      moveRpm,
+      rpmText,
+      build("label", { className: "by-label" }, by, byLabel),
+      move,
+    ),
     build("div", { className: "controls" }, runText, runRpm, runRpmText, run, release, hold, zero),
   );
   const controlTexts = () => {
@@ -356,7 +370,7 @@ on("command", ({ op, id }) => {
       m.busy += 1;
       setTimeout(() => {
         m.busy -= 1;
-      }, 400); // a settings write keeps a controller busy 50-300 ms (spec/profiles.json busy window)
+      }, BUSY_WINDOW_MS); // a settings write keeps a controller busy (spec/profiles.json busy window)
     }
   }
 });
@@ -405,7 +419,11 @@ function redraw() {
     if (!s.t.length) continue;
     const latest = lastOf(s.t);
     const from = windowStart(s.t, latest, WINDOW_S);
-    setPlotData(motor.plot, [s.t.slice(from).map((time) => time - latest), s.position.slice(from), s.target.slice(from)]);
+    setPlotData(motor.plot, [
+      s.t.slice(from).map((time) => time - latest),
+      s.position.slice(from),
+      s.target.slice(from),
+    ]);
   }
   emit("frame");
   requestAnimationFrame(redraw);

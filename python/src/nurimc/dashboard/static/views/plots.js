@@ -7,8 +7,21 @@ import uPlot from "../vendor/uplot/uPlot.esm.js";
 
 // one colour per series of a plot, so each can be told apart (and counted in the tests)
 export const COLOURS = [
-  "#2457c5", "#d97706", "#059669", "#7c3aed", "#db2777", "#0891b2", "#65a30d", "#b91c1c",
-  "#4b5563", "#ca8a04", "#0d9488", "#9333ea", "#e11d48", "#1d4ed8", "#15803d",
+  "#2457c5",
+  "#d97706",
+  "#059669",
+  "#7c3aed",
+  "#db2777",
+  "#0891b2",
+  "#65a30d",
+  "#b91c1c",
+  "#4b5563",
+  "#ca8a04",
+  "#0d9488",
+  "#9333ea",
+  "#e11d48",
+  "#1d4ed8",
+  "#15803d",
 ];
 
 /** Unit -> its scale and axis side; the first unit in use gets the left axis. */
@@ -31,17 +44,24 @@ export function valueShown(digits) {
  * A plot in `box`: series [{label, unit, stroke, dash, digits, width}], x in seconds.
  * owner: { paused, zoomed } is told when a drag zooms (it pauses) and a double-click resets.
  */
+/** Tick labels with as many decimals as the tick spacing needs, in the page's locale. */
+export function tickLabels(ticks) {
+  const step = ticks.length > 1 ? Math.abs(ticks[1] - ticks[0]) : 1;
+  const digits = step >= 1 ? 0 : step >= 0.1 ? 1 : step >= 0.01 ? 2 : 3;
+  return ticks.map((v) => num(v, digits));
+}
+
 export function makePlot(box, { series, height = 260, xLabel, onZoom, onReset }) {
   const units = [...new Set(series.map((s) => s.unit))];
   const axes = [
-    { label: xLabel, values: (u, ticks) => ticks.map((v) => num(v, Math.abs(v) < 10 ? 1 : 0)) },
+    { label: xLabel, values: (u, ticks) => tickLabels(ticks) },
     ...units.map((unit, i) => ({
       scale: UNIT_SCALES[unit] ?? unit,
       label: unit,
       side: i === 0 ? 3 : 1,
       grid: { show: i === 0 },
       size: 56,
-      values: (u, ticks) => ticks.map((v) => num(v, Math.abs(v) >= 100 ? 0 : 1)),
+      values: (u, ticks) => tickLabels(ticks),
     })),
   ];
   const scales = { x: { time: false } };

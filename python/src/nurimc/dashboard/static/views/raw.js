@@ -2,8 +2,8 @@
 // console's own polling hidden unless asked for; pause, search; export as a traffic log that
 // `nurimc replay` reads.
 import { $, build, download } from "../core/dom.js";
-import { num, onLanguage, t } from "../core/i18n.js";
 import { filterFrames, trafficLog } from "../core/frames.js";
+import { num, onLanguage, t } from "../core/i18n.js";
 import { dashboard, on } from "../core/store.js";
 import { act, ask } from "./messages.js";
 
@@ -26,14 +26,20 @@ function fillMessages() {
   if (chosen && !names.includes(chosen)) names.push(chosen);
   const same = select.options.length === names.length + 1 && names.every((n, i) => select.options[i + 1].value === n);
   if (same && select.options[0].textContent === t("raw.anyMessage")) return;
-  select.replaceChildren(build("option", { value: "", textContent: t("raw.anyMessage") }), ...names.map((n) => build("option", { value: n, textContent: n })));
+  select.replaceChildren(
+    build("option", { value: "", textContent: t("raw.anyMessage") }),
+    ...names.map((n) => build("option", { value: n, textContent: n })),
+  );
   select.value = chosen;
 }
 
 function render() {
   fillMessages();
   const frames = filterFrames(dashboard.frames, filters());
-  $("#raw-count").textContent = t("raw.count", { shown: num(frames.length, 0), total: num(dashboard.frames.length, 0) });
+  $("#raw-count").textContent = t("raw.count", {
+    shown: num(frames.length, 0),
+    total: num(dashboard.frames.length, 0),
+  });
   const rows = frames
     .slice(-RAW_ROWS)
     .reverse()
@@ -65,7 +71,8 @@ export function startRaw() {
   );
   for (const id of ["#raw-id", "#raw-search"]) $(id).oninput = render;
   for (const id of ["#raw-message", "#raw-dir", "#raw-polling"]) $(id).onchange = render;
-  $("#raw-export").onclick = () => download("nurimc-traffic.log", trafficLog(filterFrames(dashboard.frames, filters())), "application/x-ndjson");
+  $("#raw-export").onclick = () =>
+    download("nurimc-traffic.log", trafficLog(filterFrames(dashboard.frames, filters())), "application/x-ndjson");
   on("frames", (frames) => {
     dashboard.frames.push(...frames);
     if (dashboard.frames.length > KEEP) dashboard.frames.splice(0, dashboard.frames.length - KEEP);

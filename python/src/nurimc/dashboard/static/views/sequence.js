@@ -2,7 +2,7 @@
 import { $, build, download } from "../core/dom.js";
 import { onLanguage, serverError, t } from "../core/i18n.js";
 import { InputProblem, looksNumeric, readNumber } from "../core/input.js";
-import { MOVE_LIMIT, RPM_MAX } from "../core/limits.js";
+import { MAX_ID, MOVE_LIMIT, RPM_MAX } from "../core/limits.js";
 import { dashboard, on } from "../core/store.js";
 import { act, ask } from "./messages.js";
 
@@ -41,7 +41,12 @@ function render() {
   const items = dashboard.sequence.map((step, index) => {
     const inputs = STEP_FIELDS[step.kind].map(([key]) => {
       const isText = key === "name" || (key === "value" && typeof step.values[key] === "string");
-      const input = build("input", { type: isText ? "text" : "number", step: "any", value: step.values[key] ?? "", ariaLabel: t(`seq.field.${key}`) });
+      const input = build("input", {
+        type: isText ? "text" : "number",
+        step: "any",
+        value: step.values[key] ?? "",
+        ariaLabel: t(`seq.field.${key}`),
+      });
       input.dataset.key = key;
       input.oninput = () => {
         step.values[key] = input.value;
@@ -58,7 +63,14 @@ function render() {
       dashboard.sequence.splice(index - 1, 0, dashboard.sequence.splice(index, 1)[0]);
       render();
     };
-    return build("li", { className: "seq-step" }, build("b", { textContent: t(`seq.kind.${step.kind}`) }), ...inputs, up, remove);
+    return build(
+      "li",
+      { className: "seq-step" },
+      build("b", { textContent: t(`seq.kind.${step.kind}`) }),
+      ...inputs,
+      up,
+      remove,
+    );
   });
   $("#seq-list").replaceChildren(...items);
 }
@@ -68,10 +80,17 @@ function checkedStep(step, index) {
   const field = (key) => $("#seq-list").children[index].querySelector(`[data-key="${key}"]`);
   const where = t("seq.where", { n: index + 1, kind: t(`seq.kind.${step.kind}`) });
   const n = (key, opts) => readNumber(field(key), `${where} ${t(`seq.field.${key}`)}`, opts);
-  const id = () => n("id", { min: 0, max: 254, integer: true });
+  const id = () => n("id", { min: 0, max: MAX_ID, integer: true });
   switch (step.kind) {
     case "move":
-      return { op: "move", args: { id: id(), degrees: n("degrees", { min: -MOVE_LIMIT, max: MOVE_LIMIT }), rpm: n("rpm", { above: 0, max: RPM_MAX }) } };
+      return {
+        op: "move",
+        args: {
+          id: id(),
+          degrees: n("degrees", { min: -MOVE_LIMIT, max: MOVE_LIMIT }),
+          rpm: n("rpm", { above: 0, max: RPM_MAX }),
+        },
+      };
     case "wait":
       return { wait: n("seconds", { min: 0, max: 3600 }) };
     case "release":
@@ -125,7 +144,8 @@ async function runSequence() {
 }
 
 function loadSequence(document_) {
-  if (document_?.format !== "nurimc-sequence/1" || !Array.isArray(document_.steps)) throw new InputProblem(t("seq.notSequence"));
+  if (document_?.format !== "nurimc-sequence/1" || !Array.isArray(document_.steps))
+    throw new InputProblem(t("seq.notSequence"));
   const steps = document_.steps.map((s, i) => {
     if (!STEP_FIELDS[s?.kind]) throw new InputProblem(t("seq.badKind", { n: i + 1, kind: JSON.stringify(s?.kind) }));
     return s;
@@ -146,7 +166,11 @@ export function startSequence() {
   $("#seq-save").onclick = () =>
     download(
       "nurimc-sequence.json",
-      JSON.stringify({ format: "nurimc-sequence/1", steps: dashboard.sequence.map((s) => ({ kind: s.kind, ...s.values })) }, null, 2),
+      JSON.stringify(
+        { format: "nurimc-sequence/1", steps: dashboard.sequence.map((s) => ({ kind: s.kind, ...s.values })) },
+        null,
+        2,
+      ),
       "application/json",
     );
   $("#seq-load").onchange = act(

@@ -2,7 +2,7 @@
 import { $, build } from "../core/dom.js";
 import { onLanguage, serverError, t } from "../core/i18n.js";
 import { readNumber } from "../core/input.js";
-import { BAUD_RATES, DEFAULT_BAUD } from "../core/limits.js";
+import { BAUD_RATES, DEFAULT_BAUD, MAX_ID } from "../core/limits.js";
 import { dashboard, on } from "../core/store.js";
 import { act, ask } from "./messages.js";
 
@@ -20,7 +20,11 @@ function setBus(key, params = {}) {
 function fillBauds() {
   for (const select of document.querySelectorAll(".baud-select")) {
     const chosen = Number(select.value) || DEFAULT_BAUD;
-    select.replaceChildren(...BAUD_RATES.map((rate) => build("option", { value: rate, textContent: `${rate} bps`, selected: rate === chosen })));
+    select.replaceChildren(
+      ...BAUD_RATES.map((rate) =>
+        build("option", { value: rate, textContent: `${rate} bps`, selected: rate === chosen }),
+      ),
+    );
   }
 }
 
@@ -42,7 +46,9 @@ function updateResetPhrase() {
 
 async function loadPorts() {
   const answer = await ask("ports");
-  $("#bus-port").replaceChildren(...answer.ports.map((p) => build("option", { value: p, textContent: p, selected: p === answer.current })));
+  $("#bus-port").replaceChildren(
+    ...answer.ports.map((p) => build("option", { value: p, textContent: p, selected: p === answer.current })),
+  );
   $("#bus-baud").value = String(answer.baudrate);
   setBus("setup.open", { port: answer.current, rate: answer.baudrate });
 }
@@ -57,7 +63,7 @@ export function startSetup() {
     () => t("op.change_id"),
     async () => {
       const id = Number($("#setup-motor").value);
-      const newId = readNumber($("#new-id"), t("setup.newId"), { min: 0, max: 254, integer: true });
+      const newId = readNumber($("#new-id"), t("setup.newId"), { min: 0, max: MAX_ID, integer: true });
       setText("setup.changingId");
       await ask("change_id", { id, new_id: newId });
       setText("setup.idChanged", { id, newId });

@@ -31,7 +31,12 @@ function rebuildPlot() {
   const runs = shownRuns();
   const series = [
     { label: t("step.target"), unit: "°", stroke: "#6b7280", dash: [6, 4], width: 1.5 },
-    ...runs.map(({ run, index }) => ({ label: run.label, unit: "°", stroke: COLOURS[index % COLOURS.length], width: 2 })),
+    ...runs.map(({ run, index }) => ({
+      label: run.label,
+      unit: "°",
+      stroke: COLOURS[index % COLOURS.length],
+      width: 2,
+    })),
   ];
   if (live) series.push({ label: t("step.recording"), unit: "°", stroke: "#b91c1c", width: 2.5 });
   plot = makePlot(box, { series, height: 340, xLabel: t("step.seconds") });
@@ -75,7 +80,12 @@ function renderTable() {
   const rows = dashboard.stepRuns.map((run, index) => {
     const f = figuresOf(run) ?? {};
     const pick = (which) => {
-      const box = build("input", { type: "radio", name: `ab-${which}`, checked: ab[which] === index, ariaLabel: `${which.toUpperCase()} #${index + 1}` });
+      const box = build("input", {
+        type: "radio",
+        name: `ab-${which}`,
+        checked: ab[which] === index,
+        ariaLabel: `${which.toUpperCase()} #${index + 1}`,
+      });
       box.onchange = () => {
         ab[which] = index;
         rebuildPlot();
@@ -116,7 +126,11 @@ function renderTable() {
 
 async function runStep() {
   const id = Number($("#step-motor").value);
-  const amplitude = readNumber($("#step-amplitude"), t("step.step"), { min: -2 * MOVE_LIMIT, max: 2 * MOVE_LIMIT, nonzero: true });
+  const amplitude = readNumber($("#step-amplitude"), t("step.step"), {
+    min: -2 * MOVE_LIMIT,
+    max: 2 * MOVE_LIMIT,
+    nonzero: true,
+  });
   const rpm = readNumber($("#step-rpm"), t("step.rpm"), { above: 0, max: RPM_MAX });
   const duration = readNumber($("#step-duration"), t("step.record"), { min: 0.2, max: 10 });
   const s = dashboard.motors.get(id)?.series;
@@ -169,7 +183,14 @@ async function writeGains() {
   const gains = GAINS.map((k) => {
     const name = `position-${k}`;
     const spec = settingSpec(name);
-    return [name, readNumber($(`#gain-${k}`), k === "kp" ? "Kp" : k === "ki" ? "Ki" : "Kd", { min: spec.physicalMin, max: spec.physicalMax, integer: true })];
+    return [
+      name,
+      readNumber($(`#gain-${k}`), k === "kp" ? "Kp" : k === "ki" ? "Ki" : "Kd", {
+        min: spec.physicalMin,
+        max: spec.physicalMax,
+        integer: true,
+      }),
+    ];
   });
   const done = [];
   $("#gains-text").textContent = t("step.gainsWriting");
@@ -182,6 +203,10 @@ async function writeGains() {
 }
 
 export function startStep() {
+  for (const k of GAINS) {
+    const spec = settingSpec(`position-${k}`);
+    Object.assign($(`#gain-${k}`), { min: spec.physicalMin, max: spec.physicalMax });
+  }
   $("#step-run").onclick = act(() => t("op.step"), runStep);
   $("#step-clear").onclick = () => {
     dashboard.stepRuns = [];
@@ -201,7 +226,11 @@ export function startStep() {
         rows.push([k + 1, r.id, r.gains, time, r.positions[i], r.start, r.target]);
       });
     });
-    download("nurimc-steps.csv", csv(["run", "motor_id", "gains_kp_ki_kd", "t_s", "position_deg", "start_deg", "target_deg"], rows), "text/csv");
+    download(
+      "nurimc-steps.csv",
+      csv(["run", "motor_id", "gains_kp_ki_kd", "t_s", "position_deg", "start_deg", "target_deg"], rows),
+      "text/csv",
+    );
   };
   $("#step-motor").onchange = () => prefillGains().catch(() => {});
   $("#gains-write").onclick = act(() => t("op.gains"), writeGains);
