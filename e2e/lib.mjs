@@ -126,7 +126,10 @@ export async function openConsole(browser, url, { viewport, init } = {}) {
   if (init) await page.addInitScript(init);
   await page.goto(url);
   await page.waitForFunction(
-    () => window.dashboard?.connected && document.querySelectorAll(".card").length === 3,
+    () =>
+      window.dashboard?.connected &&
+      document.querySelectorAll(".card").length === 3 &&
+      [...window.dashboard.motors.values()].every((m) => m.series.t.length > 2),
     null,
     {
       timeout: 60000,

@@ -82,6 +82,11 @@ async function fresh(options = {}) {
   watch(p, problems);
   return p;
 }
+/** Wait until `n` more samples have come in (time passing, measured by the live data, not a fixed sleep). */
+async function afterSamples(p, n) {
+  const now = await p.evaluate(() => window.dashboard.samplesReceived);
+  await p.waitForFunction(([now, n]) => window.dashboard.samplesReceived >= now + n, [now, n]);
+}
 const shot = (p, name) => p.screenshot({ path: join(SHOTS, name) });
 
 const motorPosition = (p, id) => p.evaluate((id) => window.dashboard.motors.get(id)?.series.position.at(-1), id);
@@ -131,7 +136,7 @@ test("a move shows in the live plot, with its target, on a time axis relative to
       before + 120,
       { timeout: 20000 },
     );
-    await page.waitForTimeout(100);
+    await afterSamples(page, 30);
     const plotted = await page.evaluate(() => window.dashboard.motors.get(1).plot.data);
     assert.ok(Math.max(...plotted[1]) - Math.min(...plotted[1]) > 100, "the plotted positions span the move");
     assert.ok(
@@ -166,7 +171,7 @@ test("a live plot pauses, holds a zoom, shows values on hover and exports CSV", 
     const card = page.locator("#motor-1");
     await card.getByRole("button", { name: "Pause" }).click();
     const frozen = await page.evaluate(() => window.dashboard.motors.get(1).plot.data[0].length);
-    await page.waitForTimeout(300);
+    await afterSamples(page, 100);
     assert.equal(
       await page.evaluate(() => window.dashboard.motors.get(1).plot.data[0].length),
       frozen,
@@ -183,7 +188,7 @@ test("a live plot pauses, holds a zoom, shows values on hover and exports CSV", 
       const u = window.dashboard.motors.get(1).plot;
       return [u.scales.x.min, u.scales.x.max];
     });
-    await page.waitForTimeout(400);
+    await afterSamples(page, 120);
     const held = await page.evaluate(() => {
       const u = window.dashboard.motors.get(1).plot;
       return [u.scales.x.min, u.scales.x.max];
@@ -437,7 +442,7 @@ test("the plots follow the window's size", async () => {
     await page.waitForFunction((w) => window.dashboard.motors.get(1).plot.width < w - 50, wide);
     const box = await page.locator("#motor-1 .plot").boundingBox();
     assert.ok(Math.abs((await width()) - box.width) <= 3, "the plot fills its card");
-    await page.setViewportSize({ width: 1280, height: 900 });
+    await page.setViewportSize({ width: 1400, height: 900 });
     await page.waitForFunction((w) => Math.abs(window.dashboard.motors.get(1).plot.width - w) <= 3, wide);
   } finally {
     await page.close();
@@ -810,7 +815,7 @@ test("a sequence runs, is saved and loaded as JSON, and the E-STOP ends it", asy
     await page.waitForFunction(() => document.querySelector("#seq-status").dataset.state === "stopped", null, {
       timeout: 3000,
     });
-    await page.waitForTimeout(200);
+    await afterSamples(page, 60);
     assert.equal(
       await page.evaluate(() => window.sentOps.filter((op) => op === "move").length),
       moves,
@@ -977,7 +982,7 @@ test("server hung: the E-STOP is not confirmed within 1 s and says so in red; th
 
 test("server killed: banner, controls off, E-STOP says unreachable at once; restarted: reconnects, motors back", async () => {
   const port = new URL(dashboard.url).port;
-  const kept = await page.evaluate(() => window.dashboard.motors.get(1).series.t.length);
+  const lastBefore = await page.evaluate(() => window.dashboard.motors.get(1).series.t.at(-1));
   await page.evaluate(() => {
     window.dashboard.retryDelays = [];
   });
@@ -1014,12 +1019,12 @@ test("server killed: banner, controls off, E-STOP says unreachable at once; rest
   const t = await page.evaluate(() => window.dashboard.samplesReceived);
   await page.waitForFunction((t) => window.dashboard.samplesReceived > t + 10, t, { timeout: 10000 });
   assert.equal(await page.evaluate(() => document.querySelector("#controls").disabled), false, "controls back");
-  await page.waitForTimeout(100);
+  await afterSamples(page, 30);
   const plot = await page.evaluate(() => {
     const motor = window.dashboard.motors.get(1);
     return { t: motor.series.t, x: motor.plot.data[0] };
   });
-  assert.ok(plot.t.length > kept, "the plot kept what it had and carries on");
+  assert.ok(plot.t[0] <= lastBefore && plot.t.at(-1) > lastBefore, "the plot kept what it had and carries on");
   assert.ok(
     plot.t.every((v, i) => i === 0 || v > plot.t[i - 1]),
     "time only moves forward across the restart",

@@ -55,6 +55,8 @@ function render() {
         build("td", {}, build("code", { textContent: f.hex })),
       ),
     );
+  const heads = [...document.querySelectorAll("#raw-table thead th")].map((th) => th.textContent);
+  for (const row of rows) [...row.children].forEach((cell, i) => (cell.dataset.label = heads[i]));
   $("#raw-table tbody").replaceChildren(...rows);
 }
 

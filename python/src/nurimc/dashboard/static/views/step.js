@@ -74,6 +74,14 @@ function figuresOf(run) {
   return stepFigures(run.times, run.positions, run.start, run.target);
 }
 
+/** Each cell names its column (shown before it when the table is stacked on a phone). */
+function labelCells(row, table) {
+  const heads = [...document.querySelectorAll(`${table} thead th`)].map((th) => th.textContent);
+  [...row.children].forEach((cell, i) => {
+    if (heads[i]) cell.dataset.label = heads[i];
+  });
+}
+
 function renderTable() {
   const body = $("#step-runs tbody");
   const ms = (s) => (s == null ? t("step.notReached") : `${num(s * 1000, 0)} ms`);
@@ -89,6 +97,7 @@ function renderTable() {
       box.onchange = () => {
         ab[which] = index;
         rebuildPlot();
+        renderTable();
       };
       return build("td", { className: "ab" }, box);
     };
@@ -107,6 +116,7 @@ function renderTable() {
       pick("b"),
     );
     row.style.setProperty("--run", COLOURS[index % COLOURS.length]);
+    labelCells(row, "#step-runs");
     return row;
   });
   body.replaceChildren(...rows);
