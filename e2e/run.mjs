@@ -310,7 +310,6 @@ test("a setting change is written, verified and shown", async () => {
     await page.waitForFunction(() =>
       /out of range/.test(document.querySelector("#setting-position-kp .result").textContent),
     );
-    await page.screenshot({ path: join(SHOTS, "settings.png") });
   } finally {
     await page.close();
   }
@@ -667,6 +666,7 @@ const VIEWS = ["motors", "plot", "settings", "step", "sequence", "setup", "backu
 
 /** Every view shown with something in it; `each(view)` runs on each (checks, screenshots). */
 async function tour(p, each) {
+  await p.waitForFunction(() => window.dashboard.busStats && window.dashboard.motors.get(1).series.t.length > 200);
   for (const view of VIEWS) {
     await p.click(`nav button[data-view=${view}]`);
     if (view === "plot") await p.waitForFunction(() => window.dashboard.overlay.plot?.data[0].length > 10);
@@ -722,7 +722,14 @@ const offScreen = (p, width) =>
 test("desktop 1400x900: a screenshot of every view", async () => {
   const page = await fresh({ viewport: { width: 1400, height: 900 } });
   try {
+    for (const [id, rpm] of [
+      [1, 12],
+      [2, -8],
+      [3, 5],
+    ])
+      await page.evaluate(([id, rpm]) => window.dashboard.link.request("run", { id, rpm, ramp: 0.5 }), [id, rpm]);
     await tour(page, (view) => shot(page, `desktop-${view}.png`));
+    for (const id of [1, 2, 3]) await page.evaluate((id) => window.dashboard.link.request("hold", { id }), id);
   } finally {
     await page.close();
   }
@@ -1150,7 +1157,7 @@ test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 qu
 
 /** Visible English left on a page shown in Korean: words of 2+ Latin letters outside code, units, IDs and names. */
 const ALLOWED =
-  /\b(ID|RPM|bps|ms|µs|s|A|B|Kp|Ki|Kd|CSV|PNG|JSON|EEPROM|Web Serial|Esc|RESET|nurimc|dashboard|MC|BLMC-H|sim|Chrome|Edge|https?|localhost|USB|TCP)\b/g;
+  /\b(ID|RPM|bps|ms|µs|s|A|B|Kp|Ki|Kd|CSV|PNG|JSON|EEPROM|Web Serial|Esc|RESET|nurimc|dashboard|MC|BLMC-H|sim|Chrome|Edge|https?|localhost|USB|TCP|CCW|CW)\b/g;
 const englishLeft = (p) =>
   p.evaluate((allowed) => {
     const pattern = new RegExp(allowed, "g");

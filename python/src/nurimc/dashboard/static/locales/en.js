@@ -200,6 +200,7 @@ export default {
   "seq.notSequence": "not a nurimc sequence (format nurimc-sequence/1)",
   "seq.badKind": "step {n}: unknown kind {kind}",
   "setup.bus": "Bus (server)",
+  "setup.motorHeading": "Motor",
   "setup.port": "port",
   "setup.baud": "baud",
   "setup.openButton": "Open",

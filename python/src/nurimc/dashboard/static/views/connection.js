@@ -7,7 +7,15 @@ import { dashboard, emit, on } from "../core/store.js";
 import { DirectLink } from "../direct-link.js";
 import { ServerLink } from "../server-link.js";
 import { act, ask, say, sayError } from "./messages.js";
-import { addSamples, markStopped, motorError, runDiscovery, setMotors, showProgress } from "./motors.js";
+import {
+  addSamples,
+  markStopped,
+  motorError,
+  readingsPerSecond,
+  runDiscovery,
+  setMotors,
+  showProgress,
+} from "./motors.js";
 
 const ESTOP_RECEIPT_MS = 1000; // the server confirms it got the stop at once; no receipt by then is an alarm
 
@@ -236,20 +244,14 @@ function showStopBanner() {
 }
 
 // ---- status bar -----------------------------------------------------------------------------
-let lastSamples = 0;
-let lastAt = performance.now();
-let perSecond = 0;
 function refreshStatusBar() {
-  const at = performance.now();
-  if (at - lastAt >= 1000) {
-    perSecond = ((dashboard.samplesReceived - lastSamples) * 1000) / (at - lastAt);
-    lastSamples = dashboard.samplesReceived;
-    lastAt = at;
-  }
+  let perSecond = 0;
+  for (const motor of dashboard.motors.values()) perSecond += readingsPerSecond(motor.series.t);
   const stats = dashboard.busStats ?? dashboard.link?.stats?.() ?? null;
   const show = (v) => (v == null ? "–" : num(v, 0));
   $("#bar-rate").textContent = t("bar.rate", { n: num(perSecond, 0) });
-  $("#bar-errors").textContent = t("bar.errors", { n: show(stats?.errors ?? dashboard.errors) });
+  // errors while watching the motors (discovery's unanswered pings are not errors)
+  $("#bar-errors").textContent = t("bar.errors", { n: show(dashboard.errors) });
   $("#bar-stale").textContent = t("bar.stale", { n: show(stats?.stale) });
   $("#bar-busy").textContent = t("bar.busy", { n: show(stats?.busy_waits) });
 }

@@ -375,14 +375,20 @@ on("command", ({ op, id }) => {
   }
 });
 
+/** Readings per second over the last second of samples (page clock, seconds). */
+export function readingsPerSecond(times) {
+  const last = lastOf(times);
+  if (last == null) return 0;
+  let i = times.length - 1;
+  while (i > 0 && times[i - 1] > last - 1) i--;
+  const span = last - times[i];
+  return span > 0 ? (times.length - 1 - i) / span : 0;
+}
+
 function refreshCard(motor, at) {
   const s = motor.series;
   const last = s.t.length - 1;
-  if (at - motor.rate.since >= 1) {
-    motor.rate.perSecond = motor.rate.count / (at - motor.rate.since);
-    motor.rate.count = 0;
-    motor.rate.since = at;
-  }
+  motor.rate.perSecond = readingsPerSecond(s.t);
   const state = motorState({ ...motor, speed: last >= 0 ? s.speed[last] : null }, at);
   if (state !== motor.shownState) {
     motor.shownState = state;
