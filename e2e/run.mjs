@@ -629,7 +629,8 @@ test("ID and baud changes are verified; factory reset runs only after its typed 
     await page.selectOption("#new-baud", "57600");
     await page.click("#change-baud");
     await page.waitForFunction(() => window.dashboard.motors.get(3)?.info.baudrate === 57600, null, { timeout: 20000 });
-    assert.match(await page.textContent("#setup-text"), /now answers at 57600 bps \(verified\)/);
+    // the new motor list may come before the reply: wait for the reply's words
+    await page.waitForFunction(() => /now answers at 57600 bps \(verified\)/.test(document.querySelector("#setup-text").textContent));
     await page.evaluate(() => window.dashboard.link.request("set", { id: 3, name: "resolution", value: 1024 }));
   } finally {
     await page.close();
