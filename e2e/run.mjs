@@ -484,6 +484,27 @@ test("the main plot draws every motor's series while three motors move (pixels c
       window.dashboard.overlay.plot.axes.slice(1).map((a) => `${a.scale}:${a.label}:${a.side}`),
     );
     assert.deepEqual(axes, ["deg:°:3", "rpm:RPM:1", "amp:A:1"], "one axis per unit, ° on the left");
+    // wheel: zoom around the cursor, Shift+wheel: pan; both pause; double-click resumes
+    const over = await page.locator("#main-plot .u-over").boundingBox();
+    const range = () =>
+      page.evaluate(() => [window.dashboard.overlay.plot.scales.x.min, window.dashboard.overlay.plot.scales.x.max]);
+    await page.mouse.move(over.x + over.width / 2, over.y + over.height / 2);
+    const [min0, max0] = await range();
+    await page.mouse.wheel(0, -100);
+    await page.waitForFunction(() => document.querySelector("#view-plot").dataset.paused === "yes");
+    const [min1, max1] = await range();
+    assert.ok(max1 - min1 < (max0 - min0) * 0.9, `zoomed in: ${[min0, max0]} -> ${[min1, max1]}`);
+    await page.keyboard.down("Shift");
+    await page.mouse.wheel(0, 100);
+    await page.keyboard.up("Shift");
+    await page.waitForFunction((min1) => window.dashboard.overlay.plot.scales.x.min !== min1, min1);
+    const [min2, max2] = await range();
+    assert.ok(
+      Math.abs(max2 - min2 - (max1 - min1)) < 1e-6 && min2 > min1,
+      `panned: ${[min1, max1]} -> ${[min2, max2]}`,
+    );
+    await page.locator("#main-plot .u-over").dblclick();
+    await page.waitForFunction(() => document.querySelector("#view-plot").dataset.paused === "no");
     // pause, export
     await page.click("#plot-pause");
     const frozen = await page.evaluate(() => window.dashboard.overlay.plot.data[0].length);
@@ -630,7 +651,9 @@ test("ID and baud changes are verified; factory reset runs only after its typed 
     await page.click("#change-baud");
     await page.waitForFunction(() => window.dashboard.motors.get(3)?.info.baudrate === 57600, null, { timeout: 20000 });
     // the new motor list may come before the reply: wait for the reply's words
-    await page.waitForFunction(() => /now answers at 57600 bps \(verified\)/.test(document.querySelector("#setup-text").textContent));
+    await page.waitForFunction(() =>
+      /now answers at 57600 bps \(verified\)/.test(document.querySelector("#setup-text").textContent),
+    );
     await page.evaluate(() => window.dashboard.link.request("set", { id: 3, name: "resolution", value: 1024 }));
   } finally {
     await page.close();

@@ -98,6 +98,26 @@ export function makePlot(box, { series, height = 260, xLabel, onZoom, onReset })
     box,
   );
   plot.over.addEventListener("dblclick", () => onReset?.());
+  // the wheel zooms the time axis around the cursor; with Shift it pans (both pause, like a drag)
+  plot.over.addEventListener(
+    "wheel",
+    (event) => {
+      const { min, max } = plot.scales.x;
+      if (min == null || max == null) return;
+      event.preventDefault();
+      const span = max - min;
+      if (event.shiftKey) {
+        const shift = (Math.sign(event.deltaY || event.deltaX) * span) / 10;
+        plot.setScale("x", { min: min + shift, max: max + shift });
+      } else {
+        const at = plot.posToVal(event.offsetX, "x");
+        const factor = event.deltaY < 0 ? 0.8 : 1.25;
+        plot.setScale("x", { min: at - (at - min) * factor, max: at + (max - at) * factor });
+      }
+      onZoom?.();
+    },
+    { passive: false },
+  );
   const observer = new ResizeObserver(() => {
     const width = Math.max(box.clientWidth, 200);
     if (Math.abs(width - plot.width) > 2) plot.setSize({ width, height });
