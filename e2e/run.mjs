@@ -1226,6 +1226,16 @@ test("Korean: a Korean browser gets every view in Korean (vendor terms), the swi
       }
       await shot(page, `ko-${view}.png`);
     });
+    // the emergency stop: badges and the banner in Korean too
+    await page.keyboard.press("Escape");
+    await page.waitForSelector("#stop-banner:not(.hidden)");
+    await page.waitForFunction(() =>
+      [...document.querySelectorAll(".card")].every((c) => c.dataset.state === "stopped"),
+    );
+    assert.match(await page.textContent("#stop-banner"), /비상 정지로 정지됨/);
+    assert.match(await page.textContent("#motor-1 .state"), /정지됨/);
+    assert.deepEqual(await englishLeft(page), [], "E-STOP: English left");
+    await shot(page, "ko-estop.png");
     // numbers and messages follow the language; an English server error is shown in Korean
     await page.locator("#motor-1 input.to").fill("700");
     await page.locator("#motor-1 button.move").click();

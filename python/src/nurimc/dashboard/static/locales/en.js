@@ -123,7 +123,7 @@ export default {
   "plot.signals": "signals",
   "plot.motors": "motors",
   "plot.hint":
-    "each unit on its own axis; drag or wheel to zoom, Shift+wheel to pan (both pause), double-click to reset; the legend shows the latest values, or those under the cursor",
+    "each unit on its own axis; drag or wheel to zoom, <kbd>Shift</kbd>+wheel to pan (both pause), double-click to reset; the legend shows the latest values, or those under the cursor",
   "bar.rate": "{n} readings/s",
   "bar.errors": "{n} errors",
   "bar.stale": "{n} stale answers",
