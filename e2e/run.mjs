@@ -475,6 +475,17 @@ test("the main plot draws every motor's series while three motors move (pixels c
     );
     const pixels = await countPixels(page, "#main-plot", colours);
     for (const c of colours) assert.ok(pixels[c] > 400, `every series is drawn as a line: ${JSON.stringify(pixels)}`);
+    // the status bar: the bus's frames per second, errors, stale answers and busy waits
+    await page.waitForFunction(
+      () => (Number.parseInt(document.querySelector("#bar-frames").textContent.replace(/,/g, "")) || 0) > 100,
+    );
+    for (const [id, pattern] of [
+      ["#bar-rate", /^[\d,]+ readings\/s$/],
+      ["#bar-errors", /^\d+ errors$/],
+      ["#bar-stale", /^\d+ stale answers$/],
+      ["#bar-busy", /^\d+ busy waits$/],
+    ])
+      assert.match(await page.textContent(id), pattern);
     // any signal: speed and current on their own axes
     await page.locator("#plot-signals input[value=speed]").check();
     await page.locator("#plot-signals input[value=current]").check();

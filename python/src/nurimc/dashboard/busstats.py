@@ -15,6 +15,7 @@ def bus_stats(bus: Any) -> dict[str, int] | None:
         return None
     return {
         "requests": int(stats.requests),
+        "answers": int(stats.answers),
         "errors": int(stats.no_answer),
         "retries": int(stats.retries),
         "stale": int(stats.stale_frames),

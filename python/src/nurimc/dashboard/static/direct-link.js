@@ -33,7 +33,14 @@ export class DirectLink {
   /** The bus client's counters, for the status bar. */
   stats() {
     const s = this.bus?.stats;
-    return s ? { errors: s.noAnswer + s.corrupted, stale: s.staleFrames, busy_waits: s.busyWaits } : null;
+    if (!s) return null;
+    return {
+      requests: s.requests + s.commands, // frames sent (retries count as requests)
+      answers: s.requests - s.noAnswer - s.corrupted, // calls answered
+      errors: s.noAnswer + s.corrupted,
+      stale: s.staleFrames,
+      busy_waits: s.busyWaits,
+    };
   }
 
   traffic({ direction, time, message }) {

@@ -124,6 +124,7 @@ export default {
   "plot.motors": "motors",
   "plot.hint":
     "each unit on its own axis; drag or wheel to zoom, <kbd>Shift</kbd>+wheel to pan (both pause), double-click to reset; the legend shows the latest values, or those under the cursor",
+  "bar.frames": "{n} frames/s",
   "bar.rate": "{n} readings/s",
   "bar.errors": "{n} errors",
   "bar.stale": "{n} stale answers",

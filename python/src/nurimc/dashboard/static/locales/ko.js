@@ -124,6 +124,7 @@ export default {
   "plot.motors": "모터",
   "plot.hint":
     "단위마다 축이 따로 있습니다; 끌거나 휠로 확대, <kbd>Shift</kbd>+휠로 이동(둘 다 일시 정지), 두 번 클릭하면 원래대로; 범례는 최신 값 또는 커서 위치의 값을 보여줍니다",
+  "bar.frames": "초당 프레임 {n}개",
   "bar.rate": "초당 {n}회 읽음",
   "bar.errors": "오류 {n}회",
   "bar.stale": "늦은 응답 {n}개",

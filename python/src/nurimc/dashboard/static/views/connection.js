@@ -94,7 +94,7 @@ function useLink(link) {
   });
   link.on("motors", (m) => setMotors(m.motors));
   link.on("tick", (m) => {
-    if (m.stats) dashboard.busStats = m.stats;
+    if (m.stats) takeBusStats(m.stats);
   });
   link.on("motor_error", (m) => {
     motorError(m);
@@ -244,11 +244,24 @@ function showStopBanner() {
 }
 
 // ---- status bar -----------------------------------------------------------------------------
+let previousStats = null;
+/** The server's bus counters; frames per second from the change since the last tick (requests + answers). */
+function takeBusStats(stats) {
+  const at = performance.now();
+  if (previousStats && at > previousStats.at) {
+    const frames = stats.requests + (stats.answers ?? 0) - (previousStats.requests + (previousStats.answers ?? 0));
+    dashboard.framesPerSecond = Math.max(0, (frames * 1000) / (at - previousStats.at));
+  }
+  previousStats = { ...stats, at };
+  dashboard.busStats = stats;
+}
+
 function refreshStatusBar() {
   let perSecond = 0;
   for (const motor of dashboard.motors.values()) perSecond += readingsPerSecond(motor.series.t);
   const stats = dashboard.busStats ?? dashboard.link?.stats?.() ?? null;
   const show = (v) => (v == null ? "–" : num(v, 0));
+  $("#bar-frames").textContent = t("bar.frames", { n: show(dashboard.framesPerSecond ?? null) });
   $("#bar-rate").textContent = t("bar.rate", { n: num(perSecond, 0) });
   // errors while watching the motors (discovery's unanswered pings are not errors)
   $("#bar-errors").textContent = t("bar.errors", { n: show(dashboard.errors) });
@@ -283,5 +296,11 @@ export function startConnection() {
     if (dashboard.mode === "direct") fillDirectRates();
   });
   setInterval(refreshStatusBar, 500);
+  setInterval(() => {
+    if (dashboard.mode === "direct" && dashboard.link?.stats) {
+      const stats = dashboard.link.stats();
+      if (stats) takeBusStats(stats);
+    }
+  }, 1000);
   refreshStatusBar();
 }
