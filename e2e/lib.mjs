@@ -39,14 +39,15 @@ export function startDashboard(extra = []) {
   });
 }
 
-export async function launchBrowser() {
+export async function launchBrowser({ locale = "en-US", viewport = { width: 1400, height: 900 } } = {}) {
   if (!existsSync(CHROMIUM))
     throw new Error(`${CHROMIUM} is missing: run \`make system-deps\` (Debian package chromium)`);
   const profile = mkdtempSync(join(tmpdir(), "nurimc-e2e-"));
   return chromium.launchPersistentContext(profile, {
     executablePath: CHROMIUM,
     headless: true,
-    viewport: { width: 1280, height: 900 },
+    viewport,
+    locale, // navigator.languages and Accept-Language: the page picks its language from them
     args: [
       "--headless",
       "--no-sandbox",
@@ -55,6 +56,7 @@ export async function launchBrowser() {
       "--disable-component-update",
       "--disable-sync",
       "--no-first-run",
+      `--lang=${locale}`,
     ],
   });
 }
@@ -86,4 +88,81 @@ export function startStaticSite(bundle) {
 export async function discover(page) {
   await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found, null, { timeout: 60000 });
   return (await page.getAttribute("#discover-text", "data-found")).split(",").map(Number);
+}
+
+/** `nurimc sim --tcp 0` with controllers at these IDs; resolves with its TCP port once it prints it. */
+export function startSimulator(ids = "1,2,3", baud = 115200) {
+  const child = spawn(NURIMC, ["sim", "--ids", ids, "--baud", String(baud), "--tcp", "0"], {
+    stdio: ["ignore", "pipe", "pipe"],
+  });
+  let output = "";
+  return new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`simulator did not start in 30 s:\n${output}`)), 30000);
+    const look = (chunk) => {
+      output += chunk;
+      const match = /tcp 127\.0\.0\.1:(\d+)/.exec(output);
+      if (match) {
+        clearTimeout(timer);
+        resolve({ port: Number(match[1]), child, stop: () => child.kill("SIGTERM") });
+      }
+    };
+    child.stdout.on("data", look);
+    child.stderr.on("data", look);
+    child.on("exit", (code) => {
+      clearTimeout(timer);
+      reject(new Error(`simulator exited with ${code}:\n${output}`));
+    });
+  });
+}
+
+/** The command-line tool, for checks from outside (e.g. `nurimc replay` on an exported log). */
+export const NURIMC_BIN = NURIMC;
+
+/** Wait until every motor card shows (a page opened on a server that knows its motors). */
+export async function openConsole(browser, url, { viewport, init } = {}) {
+  const page = await browser.newPage();
+  page.setDefaultTimeout(15000);
+  if (viewport) await page.setViewportSize(viewport);
+  if (init) await page.addInitScript(init);
+  await page.goto(url);
+  await page.waitForFunction(
+    () =>
+      window.dashboard?.connected &&
+      document.querySelectorAll(".card").length === 3 &&
+      [...window.dashboard.motors.values()].every((m) => m.series.t.length > 2),
+    null,
+    {
+      timeout: 60000,
+    },
+  );
+  return page;
+}
+
+/**
+ * Pixels of each colour drawn on a plot's canvas: { "#2457c5": n, ... } for the given series
+ * colours (a pixel counts if each channel is within `tolerance` of the colour and it is opaque).
+ */
+export function countPixels(page, selector, colours, tolerance = 40) {
+  return page.evaluate(
+    ({ selector, colours, tolerance }) => {
+      const canvas = document.querySelector(`${selector} canvas`);
+      const { width, height } = canvas;
+      const data = canvas.getContext("2d").getImageData(0, 0, width, height).data;
+      const rgb = colours.map((c) => [1, 3, 5].map((i) => Number.parseInt(c.slice(i, i + 2), 16)));
+      const counts = colours.map(() => 0);
+      for (let i = 0; i < data.length; i += 4) {
+        if (data[i + 3] < 200) continue;
+        rgb.forEach(([r, g, b], k) => {
+          if (
+            Math.abs(data[i] - r) <= tolerance &&
+            Math.abs(data[i + 1] - g) <= tolerance &&
+            Math.abs(data[i + 2] - b) <= tolerance
+          )
+            counts[k] += 1;
+        });
+      }
+      return Object.fromEntries(colours.map((c, k) => [c, counts[k]]));
+    },
+    { selector, colours, tolerance },
+  );
 }

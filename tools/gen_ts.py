@@ -154,6 +154,7 @@ def host(rules: dict[str, Any]) -> str:
         f"  maxResponseTimeUs: {round(timing['max_response_time_s'] * 1_000_000)},",
         f"  retries: {timing['retries']},",
         f"  retryPauseMs: {ms(timing['retry_pause_s'])},",
+        f"  /** how late an answer may be beyond its deadline and still be told apart (docs/protocol.md, Stale answers) */\n  lateAnswerMs: {ms(timing['late_answer_s'])},",
         "} as const;",
         "",
         "/** Commands that start an EEPROM write: the controller ignores every frame for its busy window. */",

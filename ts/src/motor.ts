@@ -73,6 +73,8 @@ export class Motor {
   private relative: boolean | null = null;
   /** Whether control is off (null: not known yet). */
   private released: boolean | null = null;
+  /** The bus's emergency-stop count when `released` was last known (a stop turns control off). */
+  private stopsSeen = 0;
 
   constructor(
     readonly bus: Bus,
@@ -107,25 +109,31 @@ export class Motor {
 
   /** Go to an absolute signed position (the device's frame, ±655.33°). In relative mode the step from here is sent. */
   async moveTo(degrees: number, travel: Travel): Promise<void> {
+    const stops = this.sinceStops();
     let command = this.makeMoveTo(degrees, travel);
     if (await this.isRelative()) command = this.makeMoveTo(degrees - (await this.readState()).devicePosition, travel);
-    await this.enableIfReleased();
+    await this.enableIfReleased(stops);
+    this.bus.assertNoStopSince(stops);
     await this.bus.send(command);
   }
 
   /** Move by a signed amount from where the motor is. */
   async moveBy(degrees: number, travel: Travel): Promise<void> {
+    const stops = this.sinceStops();
     let command: Message;
     if (await this.isRelative()) command = this.makeMoveTo(degrees, travel);
     else command = this.makeMoveTo((await this.readState()).devicePosition + degrees, travel);
-    await this.enableIfReleased();
+    await this.enableIfReleased(stops);
+    this.bus.assertNoStopSince(stops);
     await this.bus.send(command);
   }
 
   /** Turn at a signed speed (CCW +), reached in `rampSeconds`. */
   async run(rpm: number, rampSeconds = 0.1): Promise<void> {
+    const stops = this.sinceStops();
     const command = this.makeRun(rpm, rampSeconds);
-    await this.enableIfReleased();
+    await this.enableIfReleased(stops);
+    this.bus.assertNoStopSince(stops);
     await this.bus.send(command);
   }
 
@@ -137,10 +145,12 @@ export class Motor {
 
   /** Control on, holding the present position: in absolute mode the present position becomes the target. */
   async hold(): Promise<void> {
+    const stops = this.sinceStops();
     await this.bus.send(make("set_control", this.id, { control: 0 }));
     this.released = false;
     if (await this.isRelative()) return; // a relative target of 0 would be no move: control on holds here
     const state = await this.readState();
+    this.bus.assertNoStopSince(stops);
     await this.bus.send(this.makeMoveTo(state.devicePosition, { rpm: HOLD_RPM }));
   }
 
@@ -246,14 +256,28 @@ export class Motor {
     else if (spec.name === "control") this.released = raw === 1;
   }
 
+  /**
+   * The bus's emergency-stop count at the start of a motion: each later step checks it, so an
+   * operation begun before a stop sends nothing after it. A stop since the last call turned
+   * control off, so what was known about control is forgotten (read again before moving).
+   */
+  private sinceStops(): number {
+    if (this.stopsSeen !== this.bus.stops) {
+      this.stopsSeen = this.bus.stops;
+      this.released = null;
+    }
+    return this.stopsSeen;
+  }
+
   private async isRelative(): Promise<boolean> {
     if (this.relative === null) await this.readRaw(setting("position-mode"));
     return this.relative === true;
   }
 
   /** Control on if it is off (read once if unknown); the motion that follows waits out the busy window this starts. */
-  private async enableIfReleased(): Promise<void> {
+  private async enableIfReleased(stops: number): Promise<void> {
     if (this.released === null) await this.readRaw(setting("control"));
+    this.bus.assertNoStopSince(stops);
     if (this.released === true) {
       await this.bus.send(make("set_control", this.id, { control: 0 }));
       this.released = false;

@@ -205,3 +205,20 @@ describe("Motor: settings by name, in physical units", () => {
     expect(await motor.ping()).toBe(false);
   });
 });
+
+describe("motion and the emergency stop", () => {
+  it("sends nothing of a move begun before the stop, and reads control again after it", async () => {
+    const { bus, sent, state, motor } = controller();
+    const move = motor.moveTo(90, { rpm: 60 }); // needs the position mode and control read first
+    await bus.emergency(make("set_control", 255, { control: 1 }));
+    await expect(move).rejects.toThrow(/emergency stop/);
+    const stopAt = sent.findIndex((m) => m.name === "set_control" && m.id === 255);
+    expect(sent.slice(stopAt).filter((m) => m.name === "position_speed")).toEqual([]);
+    state.control = 1; // the broadcast turned it off
+    await motor.moveTo(45, { rpm: 60 }); // a new command after the stop
+    const after = sent.slice(stopAt + 1).map((m) => m.name);
+    expect(after).toContain("request_control"); // what it knew about control was forgotten
+    expect(after.filter((n) => n === "set_control")).toHaveLength(1); // control on again, then the move
+    expect(after.at(-1)).toBe("position_speed");
+  });
+});

@@ -21,6 +21,15 @@
  *   while a call waits for its answer fails that call at once; `request(..., { signal })`
  *   ends the call when the signal aborts (before its turn, in a busy wait or waiting for
  *   the answer) and frees the queue.
+ * - Stale answers (docs/protocol.md, Stale answers; the Python library's rule): a request that
+ *   got no answer by its deadline leaves an answer owed by its ID until
+ *   `sent + deadline + late` (spec/host.json `timing.late_answer_s`). Before the next request to
+ *   an ID that owes answers, the client listens until they came or their time is up (a quiet
+ *   period); what comes is counted as stale and dropped. A late answer to an earlier attempt of
+ *   the same call is that call's answer. A rate change forgets what is owed.
+ * - The emergency stop (`emergency()`) jumps the queue: every queued call fails with
+ *   CancelledError without touching the port, the call in progress stops waiting, and the stop's
+ *   frames are written next, ahead of anything sent after it.
  */
 import { type AnswerMessageOf, answerName, encode, type Message, type MessageOf, messageSpec } from "../codec.js";
 import { DEFAULT_PROFILE, EEPROM_WRITES, HOST_PROFILES, HOST_TIMING } from "../generated/host.js";
@@ -30,6 +39,7 @@ import { StreamParser } from "../parser.js";
 import {
   BusClosedError,
   BusError,
+  CancelledError,
   ControllerBusyError,
   CorruptedAnswerError,
   NoAnswerError,
@@ -52,6 +62,8 @@ export interface BusOptions {
   retryPauseMs?: number;
   /** EEPROM busy window for every ID of this bus, ms (default: each ID's product profile). */
   busyWindowMs?: number;
+  /** How late an answer may be beyond its deadline and still be told apart, ms (default from spec/host.json: 100). */
+  lateAnswerMs?: number;
   /** EEPROM busy window per ID, ms, ahead of busyWindowMs. */
   busyWindowsMs?: Record<number, number>;
   /** Product profile per ID (a key of HOST_PROFILES), for the default busy window; unknown IDs use "mc". */
@@ -83,6 +95,10 @@ export interface BusStats {
   corrupted: number;
   /** frames held back until a controller's EEPROM busy window ended */
   busyWaits: number;
+  /** requests that first waited out answers their ID still owed (the quiet period) */
+  quietWaits: number;
+  /** calls an emergency stop cancelled */
+  cancelled: number;
 }
 
 interface Pending {
@@ -113,6 +129,8 @@ export class Bus {
     noAnswer: 0,
     corrupted: 0,
     busyWaits: 0,
+    quietWaits: 0,
+    cancelled: 0,
   };
   readonly parser = new StreamParser();
   timing: Timing;
@@ -120,6 +138,8 @@ export class Bus {
   readonly responseTimesUs: Map<number, number>;
   retries: number;
   retryPauseMs: number;
+  /** How late an answer may be beyond its deadline and still be told apart, ms. */
+  lateAnswerMs: number;
   /** EEPROM busy window for every ID, ms (undefined: from each ID's product profile). */
   busyWindowMs: number | undefined;
   /** EEPROM busy window per ID, ms, ahead of busyWindowMs. */
@@ -134,6 +154,16 @@ export class Bus {
   private readonly opened = Date.now();
   private readonly unsubscribe: Array<() => void>;
   private queue: Promise<unknown> = Promise.resolve();
+  /** the call now using the port (settled or not); the emergency stop goes right after it */
+  private current: Promise<unknown> = Promise.resolve();
+  /** bumped by every emergency stop: a call queued in an older epoch is cancelled at its turn */
+  private epoch = 0;
+  /** aborted by an emergency stop: ends the waits (busy, quiet, retry pause) of the call in progress */
+  private stopSignal = new AbortController();
+  /** answers still owed per ID: how many, and the host-clock time after which none can be told apart */
+  private readonly owed = new Map<number, { count: number; until: number }>();
+  /** wakes a quiet period when the last owed answer of its ID arrives */
+  private quietWake: (() => void) | null = null;
   private pending: Pending | null = null;
   private closed: Error | null = null;
 
@@ -149,6 +179,7 @@ export class Bus {
     );
     this.retries = nonNegative("retries", options.retries ?? HOST_TIMING.retries);
     this.retryPauseMs = nonNegative("retryPauseMs", options.retryPauseMs ?? HOST_TIMING.retryPauseMs);
+    this.lateAnswerMs = nonNegative("lateAnswerMs", options.lateAnswerMs ?? HOST_TIMING.lateAnswerMs);
     this.busyWindowMs =
       options.busyWindowMs === undefined ? undefined : nonNegative("busyWindowMs", options.busyWindowMs);
     this.busyWindowsMs = new Map(
@@ -182,7 +213,65 @@ export class Bus {
         new RangeError(`${rate} bps is not a rate these controllers support; use one of ${BAUD_RATES.join(", ")}`),
       );
     }
-    return this.exclusive(() => this.port.setBaudRate(rate));
+    return this.exclusive(async () => {
+      await this.port.setBaudRate(rate);
+      this.owed.clear(); // at another rate a late answer arrives as broken bytes, never as a frame
+    });
+  }
+
+  /** How many emergency stops this bus has sent: a multi-step operation started before one must not go on. */
+  get stops(): number {
+    return this.epoch;
+  }
+
+  /** Throws CancelledError if an emergency stop was sent since `stops` was read (Motor checks it between steps). */
+  assertNoStopSince(stops: number): void {
+    if (stops !== this.epoch) {
+      this.stats.cancelled += 1;
+      throw new CancelledError("cancelled by an emergency stop; the rest of this operation was not sent");
+    }
+  }
+
+  /** How many answers an ID still owes (late answers the client will drop), and until when. */
+  owedAnswers(id: number): { count: number; until: number } | undefined {
+    const owed = this.owed.get(id);
+    return owed === undefined ? undefined : { ...owed };
+  }
+
+  /**
+   * The emergency stop: send these commands (e.g. control off to 255) ahead of everything queued.
+   * Every call queued before it fails with CancelledError without touching the port; a call in
+   * progress stops waiting (its answer or a busy window) and fails the same way; the commands
+   * are written next, without waiting for busy windows (a controller busy writing EEPROM ignores
+   * them: verify by reading back and send again). Calls made after it run after it.
+   */
+  emergency(...commands: Message[]): Promise<void> {
+    const frames: Uint8Array[] = [];
+    try {
+      for (const command of commands) {
+        if (messageSpec(command.name).kind !== "command") throw new BusError(`${command.name} is not a command`);
+        frames.push(encode(command));
+      }
+    } catch (err) {
+      return Promise.reject(err);
+    }
+    const bytes = new Uint8Array(frames.reduce((n, f) => n + f.length, 0));
+    frames.reduce((at, f) => (bytes.set(f, at), at + f.length), 0);
+    this.epoch += 1;
+    const cancel = new CancelledError("cancelled by an emergency stop before it completed; nothing more was sent");
+    this.stopSignal.abort(cancel);
+    this.stopSignal = new AbortController();
+    this.pending?.fail(cancel);
+    const stop = this.current.then(async () => {
+      if (this.closed !== null) throw portFailure(this.closed);
+      this.stats.commands += commands.length;
+      await this.transmit(commands, bytes);
+      this.markBusy(commands, bytes.length);
+    });
+    this.current = stop.catch(() => undefined);
+    const before = this.queue;
+    this.queue = Promise.all([before, stop]).catch(() => undefined);
+    return stop;
   }
 
   /** Send commands (modes 01-10) back to back in one write, once, without waiting: controllers never answer them. */
@@ -203,7 +292,10 @@ export class Bus {
     return this.exclusive(async () => {
       this.stats.commands += commands.length;
       if (bytes.length === 0) return;
-      await this.waitUntilFree(commands.map((command) => command.id));
+      await this.waitUntilFree(
+        commands.map((command) => command.id),
+        this.stopSignal.signal,
+      );
       await this.transmit(commands, bytes);
       this.markBusy(commands, bytes.length);
     });
@@ -276,6 +368,9 @@ export class Bus {
     retries: number,
     signal?: AbortSignal,
   ): Promise<Message> {
+    const stopped = this.stopSignal.signal;
+    signal = signal === undefined ? stopped : AbortSignal.any([signal, stopped]);
+    await this.quiet(request.id, signal);
     this.stats.requests += 1;
     const timeout = this.timeoutMs(request);
     let failure: Error = new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
@@ -302,16 +397,24 @@ export class Bus {
       if (signal?.aborted) abort();
       this.pending = pending; // before the write: a fast answer may come before write() resolves
       let timer: ReturnType<typeof setTimeout> | undefined;
+      let sentAt = 0;
       try {
         await this.transmit([request], frame);
+        sentAt = this.now();
         timer = setTimeout(() => settle(null), timeout); // the deadline counts from the end of the write
         const message = await got;
-        if (message !== null) return message;
+        if (message !== null) {
+          const owed = this.owed.get(request.id);
+          // an earlier attempt of this call is still unanswered: its answer may yet come, and is dropped then
+          if (owed !== undefined) owed.until = Math.max(owed.until, sentAt + timeout + this.lateAnswerMs);
+          return message;
+        }
       } finally {
         clearTimeout(timer);
         signal?.removeEventListener("abort", abort);
         this.pending = null;
       }
+      this.owe(request.id, sentAt + timeout + this.lateAnswerMs);
       this.parser.clear(); // a partial frame left at the timeout counts as unusable bytes
       const dropped = this.parser.stats.droppedBytes - before.droppedBytes;
       const badChecksum = this.parser.stats.badChecksum - before.badChecksum;
@@ -326,6 +429,63 @@ export class Bus {
     if (failure instanceof CorruptedAnswerError) this.stats.corrupted += 1;
     if (failure instanceof NoAnswerError) this.stats.noAnswer += 1;
     throw failure;
+  }
+
+  private owe(id: number, until: number): void {
+    const owed = this.owed.get(id);
+    if (owed === undefined) this.owed.set(id, { count: 1, until });
+    else {
+      owed.count += 1;
+      owed.until = Math.max(owed.until, until);
+    }
+  }
+
+  /** A frame nobody asked for now: counted stale; true if it was an answer its ID still owed. */
+  private settleStale(message: Message): boolean {
+    this.stats.staleFrames += 1;
+    const owed = this.owed.get(message.id);
+    if (owed === undefined || messageSpec(message.name).kind === "request") return false;
+    owed.count -= 1;
+    if (owed.count <= 0) {
+      this.owed.delete(message.id);
+      this.quietWake?.();
+    }
+    return true;
+  }
+
+  /** Before asking `id`: listen until the answers it still owes came or cannot come any more. */
+  private async quiet(id: number, signal: AbortSignal): Promise<void> {
+    let counted = false;
+    for (;;) {
+      const owed = this.owed.get(id);
+      if (owed === undefined) return;
+      const now = this.now();
+      if (owed.until <= now) {
+        this.owed.delete(id);
+        return;
+      }
+      if (!counted) {
+        this.stats.quietWaits += 1;
+        counted = true;
+      }
+      signal.throwIfAborted();
+      await new Promise<void>((resolve, reject) => {
+        const done = (): void => {
+          clearTimeout(timer);
+          signal.removeEventListener("abort", aborted);
+          this.quietWake = null;
+          resolve();
+        };
+        const aborted = (): void => {
+          clearTimeout(timer);
+          this.quietWake = null;
+          reject(signal.reason);
+        };
+        const timer = setTimeout(done, owed.until - now);
+        this.quietWake = done;
+        signal.addEventListener("abort", aborted, { once: true });
+      });
+    }
   }
 
   private async transmit(messages: Message[], frame: Uint8Array): Promise<void> {
@@ -377,11 +537,13 @@ export class Bus {
       this.onTraffic?.({ direction: "rx", time: Date.now() - this.opened, message });
       const pending = this.pending;
       if (pending === null) {
-        this.stats.staleFrames += 1;
+        this.settleStale(message);
       } else if (message.id === pending.request.id && message.name === pending.answer) {
         pending.resolve(message);
       } else if (message.id === pending.request.id && message.name === pending.request.name) {
         this.stats.echoes += 1;
+      } else if (this.owed.has(message.id) && messageSpec(message.name).kind !== "request") {
+        this.settleStale(message); // a late answer another ID owed: told apart by its ID, dropped
       } else {
         this.stats.unexpectedFrames += 1;
         pending.unexpected.push(message);
@@ -391,10 +553,17 @@ export class Bus {
 
   /** Run `task` after every earlier call has finished (half-duplex: one transaction at a time). */
   private exclusive<T>(task: () => Promise<T>, signal?: AbortSignal): Promise<T> {
+    const epoch = this.epoch;
     const run = this.queue.then(() => {
       if (this.closed !== null) throw portFailure(this.closed);
+      if (epoch !== this.epoch) {
+        this.stats.cancelled += 1;
+        throw new CancelledError("cancelled by an emergency stop before it was sent; nothing was sent");
+      }
       signal?.throwIfAborted(); // aborted while queued: the port is not touched
-      return task();
+      const current = task();
+      this.current = current.catch(() => undefined);
+      return current;
     });
     this.queue = run.catch(() => undefined);
     return run;

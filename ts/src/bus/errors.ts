@@ -13,6 +13,11 @@ export class PortError extends BusError {
   }
 }
 
+/** An emergency stop emptied the queue: this call was not sent (or its answer is no longer awaited). */
+export class CancelledError extends BusError {
+  override name = "CancelledError";
+}
+
 /** The bus was closed; nothing more can be sent. */
 export class BusClosedError extends BusError {
   override name = "BusClosedError";

@@ -13,6 +13,8 @@ export const HOST_TIMING = {
   maxResponseTimeUs: 25400,
   retries: 2,
   retryPauseMs: 5,
+  /** how late an answer may be beyond its deadline and still be told apart (docs/protocol.md, Stale answers) */
+  lateAnswerMs: 100,
 } as const;
 
 /** Commands that start an EEPROM write: the controller ignores every frame for its busy window. */

@@ -24,6 +24,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from .. import __version__
 from ..client.sync import Bus
 from . import commands as c
+from .busstats import bus_stats
 from .frames import FrameTap
 from .security import TOKEN_COOKIE, SecurityPolicy
 from .worker import BusWorker
@@ -208,7 +209,7 @@ def create_app(config: DashboardConfig) -> Starlette:
             await asyncio.sleep(FLUSH_SECONDS)
             if time.monotonic() >= next_tick:
                 next_tick = time.monotonic() + TICK_SECONDS
-                hub.broadcast({"type": "tick"})
+                hub.broadcast({"type": "tick", "stats": bus_stats(worker().bus)})
             samples = worker().take_samples()
             if samples:
                 hub.broadcast({"type": "samples", "rows": samples})

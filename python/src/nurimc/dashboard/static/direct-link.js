@@ -1,7 +1,13 @@
-// Direct mode: no server; the page drives the bus itself through Web Serial and the
-// TypeScript library (nurimc.browser.js next to this page). It offers the same requests
-// as the server for discovery at one rate, live state, motion and the emergency stop.
+import { MAX_ID } from "./core/limits.js";
+
+// Direct mode: no server; the page drives the bus itself through Web Serial and the TypeScript
+// library (nurimc.browser.js next to this page). It offers the same requests as the server for
+// discovery at one rate, live state, motion and the emergency stop, with the same safety rules:
+// the stop jumps the client's queue (Bus.emergency: everything queued is cancelled, nothing of
+// a motion begun before it is sent after it) and is verified by reading every motor's control
+// back, sent again to a motor that does not read off, for up to ESTOP_VERIFY_MS.
 const LIVE_HZ = 100;
+const ESTOP_VERIFY_MS = 2000; // as the server: a controller writing EEPROM ignores frames for up to 300 ms
 
 export class DirectLink {
   constructor(lib, baudRate) {
@@ -9,15 +15,44 @@ export class DirectLink {
     this.baudRate = baudRate;
     this.handlers = new Map();
     this.motors = new Map();
+    this.found = new Set();
     this.watched = [];
     this.origin = performance.now();
   }
 
   async connect() {
     const device = await navigator.serial.requestPort();
-    this.bus = new this.lib.Bus(await this.lib.WebSerialPort.open(device, this.baudRate));
+    const port = await this.lib.WebSerialPort.open(device, this.baudRate);
+    this.frames = null; // the raw view's capture, when on
+    this.bus = new this.lib.Bus(port, { onTraffic: (event) => this.traffic(event) });
+    this.connected = true;
     this.poll();
     return this;
+  }
+
+  /** The bus client's counters, for the status bar. */
+  stats() {
+    const s = this.bus?.stats;
+    if (!s) return null;
+    return {
+      requests: s.requests + s.commands, // frames sent (retries count as requests)
+      answers: s.requests - s.noAnswer - s.corrupted, // calls answered
+      errors: s.noAnswer + s.corrupted,
+      stale: s.staleFrames,
+      busy_waits: s.busyWaits,
+    };
+  }
+
+  traffic({ direction, time, message }) {
+    if (!this.frames) return;
+    const { name, id, ...fields } = message;
+    let hex = "";
+    try {
+      hex = this.lib.toHex(this.lib.encode(message));
+    } catch {
+      hex = "";
+    }
+    this.frames.push({ t: time / 1000, dir: direction, id, name, fields, hex: hex.replace(/(..)(?!$)/g, "$1 ") });
   }
 
   motor(id) {
@@ -26,7 +61,7 @@ export class DirectLink {
   }
 
   async poll() {
-    for (;;) {
+    while (this.connected) {
       const started = performance.now();
       const rows = [];
       for (const id of this.watched) {
@@ -34,33 +69,61 @@ export class DirectLink {
           const s = await this.motor(id).readState();
           rows.push([id, (performance.now() - this.origin) / 1000, s.position, s.speed, s.current, s.devicePosition]);
         } catch (error) {
-          this.emit("motor_error", { id, message: error.message });
+          if (error.name !== "CancelledError") this.emit("motor_error", { id, message: error.message, kind: "error" });
         }
       }
       if (rows.length) this.emit("samples", { rows });
+      if (this.frames?.length) this.emit("frames", { frames: this.frames.splice(0) });
       const wait = 1000 / LIVE_HZ - (performance.now() - started);
       await new Promise((r) => setTimeout(r, Math.max(wait, this.watched.length ? 0 : 200)));
     }
   }
 
+  info(id) {
+    return { id, baudrate: this.baudRate, firmware: null };
+  }
+
+  async discover(ids) {
+    const found = [];
+    const candidates = ids ?? Array.from({ length: MAX_ID + 1 }, (_, id) => id);
+    for (const [index, id] of candidates.entries()) {
+      if (index % 8 === 0)
+        this.emit("progress", {
+          rate: this.baudRate,
+          index: 0,
+          total: 1,
+          walking_id: id,
+          found: found.map((m) => m.id),
+          motors: found,
+        });
+      try {
+        await this.bus.request(this.lib.make("request_ping", id, {}), { retries: 0 });
+      } catch (error) {
+        if (error.name === "NoAnswerError" || error.name === "ControllerBusyError") continue;
+        throw error;
+      }
+      const info = this.info(id);
+      info.firmware = await this.motor(id)
+        .get("firmware")
+        .catch(() => null);
+      found.push(info);
+      this.found.add(id);
+      this.emit("progress", {
+        rate: this.baudRate,
+        index: 0,
+        total: 1,
+        walking_id: id,
+        found: found.map((m) => m.id),
+        motors: found,
+      });
+    }
+    return { motors: found };
+  }
+
   async request(op, args = {}) {
     switch (op) {
-      case "discover": {
-        const found = [];
-        for (let id = 0; id <= 254; id++) {
-          if (id % 8 === 0)
-            this.emit("progress", {
-              rate: this.baudRate,
-              index: 0,
-              total: 1,
-              walking_id: id,
-              found: found.map((m) => m.id),
-            });
-          if (await this.motor(id).ping())
-            found.push({ id, baudrate: this.baudRate, firmware: await this.motor(id).get("firmware") });
-        }
-        return { motors: found };
-      }
+      case "discover":
+        return this.discover(args.ids ?? null);
       case "watch":
         this.watched = args.ids;
         return { watching: args.ids };
@@ -70,29 +133,48 @@ export class DirectLink {
         await (args.relative ? motor.moveBy(args.degrees, travel) : motor.moveTo(args.degrees, travel));
         return { id: args.id };
       }
-      case "run": {
+      case "run":
         await this.motor(args.id).run(args.rpm, args.ramp ?? 0.5);
         return { id: args.id };
-      }
       case "release":
         await this.motor(args.id).release();
         return { id: args.id };
       case "hold":
         await this.motor(args.id).hold();
         return { id: args.id };
-      case "estop": {
-        await this.bus.send(this.lib.make("set_control", 255, { control: 1 }));
-        const control = {};
-        for (const id of this.motors.keys())
-          control[id] = await this.motor(id)
-            .get("control")
-            .catch((e) => `unknown: ${e.message}`);
-        this.emit("estop", { rates: [this.baudRate], control });
-        return { rates: [this.baudRate], control };
-      }
+      case "read_settings":
+        return { settings: { control: await this.motor(args.id).get("control") } };
+      case "frames":
+        this.frames = args.on ? [] : null;
+        return { on: Boolean(args.on), recent: [] };
+      case "estop":
+        return this.emergencyStop();
       default:
         throw new Error(`${op} needs the server in this version: run \`nurimc dashboard\` and open its address`);
     }
+  }
+
+  /** Control off to every motor (broadcast), ahead of everything queued; then each known motor read back. */
+  async emergencyStop() {
+    const off = (id) => this.lib.make("set_control", id, { control: 1 });
+    await this.bus.emergency(off(this.lib.BROADCAST_ID));
+    const ids = [...new Set([...this.found, ...this.watched, ...this.motors.keys()])].filter((id) => id <= MAX_ID);
+    const deadline = performance.now() + ESTOP_VERIFY_MS;
+    const control = {};
+    for (const id of ids) {
+      for (;;) {
+        try {
+          control[id] = await this.motor(id).get("control");
+        } catch (error) {
+          control[id] = `unknown: ${error.message}`;
+        }
+        if (control[id] === "off" || performance.now() >= deadline) break;
+        await this.bus.send(off(id)).catch(() => {}); // not off yet (busy, or a frame lost): tell it again
+      }
+    }
+    const result = { rates: [this.baudRate], control, verified: Object.values(control).every((c) => c === "off") };
+    this.emit("estop", result);
+    return result;
   }
 
   on(type, handler) {
