@@ -18,6 +18,7 @@ import time
 from collections import defaultdict
 from collections.abc import Callable
 
+from ..client.clock import VirtualClock
 from ..protocol import BAUD_RATES, BROADCAST_ID, decode
 from ..sniff import ExplainingParser, Frame
 from .controller import EEPROM_TIME, Reply, SimController
@@ -71,8 +72,11 @@ class HostLink:
 class BusCore:
     """Simulated controllers on one RS485 bus.
 
-    `clock` returns seconds (default time.monotonic); tests may pass a fake one and move
-    it themselves. With `wire_timing` every byte takes 10 bits / baud on the wire.
+    `clock` returns seconds (default time.monotonic). A `nurimc.client.clock.VirtualClock`
+    makes the bus run on virtual time: physics follows every move of that clock, and a read
+    on an in-process port that finds nothing moves the clock to the next byte due (or to the
+    read's end) instead of sleeping; give the same clock to the library's Bus.
+    With `wire_timing` every byte takes 10 bits / baud on the wire.
     `profiles` (default: spec/profiles.json) give each product's factory gains and speed-0
     rule; `speed_zero` ("ignore" or "stop") overrides that rule for every controller.
     """
@@ -99,6 +103,8 @@ class BusCore:
         self.profiles = profiles or default_profiles()
         self._clock = clock or time.monotonic
         self._real_clock = clock is None
+        #: the virtual clock this bus moves when a reader waits (None: time moves by itself)
+        self.virtual: VirtualClock | None = clock if isinstance(clock, VirtualClock) else None
         self.lock = threading.RLock()
         self.changed = threading.Condition(self.lock)
         self.controllers: list[SimController] = []
@@ -113,6 +119,8 @@ class BusCore:
         self._host_free_at = 0.0
         self._ticker: threading.Thread | None = None
         self._closing = threading.Event()
+        if self.virtual is not None:
+            self.virtual.on_advance(self._follow)
 
     # --- building ---------------------------------------------------------------------------
     def now(self) -> float:
@@ -323,10 +331,9 @@ class BusCore:
         with self.lock:
             if not self.airborne:
                 return None
-            tx = self.airborne[0]
             if self.wire_timing:
-                return tx.start + (tx.delivered + 1) * tx.byte_time
-            return tx.start
+                return min(tx.start + (tx.delivered + 1) * tx.byte_time for tx in self.airborne)
+            return self.airborne[0].start
 
     def wait_hint(self, cap: float = 0.05) -> float:
         """Seconds a reader may sleep before something can be delivered (capped)."""
@@ -350,6 +357,27 @@ class BusCore:
                 if not c.servo.static:
                     c.advance_to(now)
             self.pump(now)
+
+    def _follow(self, now: float) -> None:
+        if not self._closing.is_set():
+            self.advance(now)
+
+    def wait_virtually(self, until: float | None) -> bool:
+        """On virtual time: move the clock to the next byte due for the hosts, or to `until`
+        if that comes first (None: no limit). False when there is nothing to wait for (time
+        stands at `until`, or nothing is on the way and no limit was given)."""
+        assert self.virtual is not None
+        with self.lock:
+            now = self.now()
+            due = self.next_delivery()
+            target = until if due is None else (due if until is None else min(due, until))
+            if target is None or target <= now:
+                if due is not None and due <= now:  # due now (rounding): nudge time past it
+                    self.virtual.advance_to(now + 1e-9)
+                    return True
+                return False
+            self.virtual.advance_to(target)
+            return True
 
     def _start_ticker(self) -> None:
         if not self._real_clock or self._ticker is not None:
