@@ -131,6 +131,8 @@ def test_discovery_walks_ids_when_answers_collide() -> None:
 
 def test_duplicate_ids_are_reported_as_corrupted_not_misread() -> None:
     sim, bus = sim_bus([2, 3], resolution=1000)
+    # both away from 0: an all-zero answer is dominant on the wire and can survive a collision whole
+    bus.motor(2).move_to(-70, rpm=300)
     bus.motor(3).move_to(40, rpm=300)
     bus.clock.sleep(0.4)
     bus.run(cfg.change_id(bus.core, 3, 4))

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from nurimc.client.actions import Receive, Send, SetBaud, WaitUntil
-from nurimc.client.core import BusCore
+from nurimc.client.core import FENCES, BusCore
 from nurimc.client.timing import MAX_RESPONSE_TIME, Timing
 from nurimc.config import change_baud, change_id
 from nurimc.discovery import WALK_RESPONSE_TIME, Found, Progress, discover
@@ -18,6 +18,7 @@ from nurimc.motor import MotorProcedures, MotorState
 from nurimc.protocol import (
     BROADCAST_ID,
     Firmware,
+    Message,
     Ping,
     PositionFeedback,
     RequestFirmware,
@@ -185,15 +186,16 @@ def test_change_id_checks_both_ids_writes_once_and_verifies_after_the_busy_windo
     s.silence()
     assert s.sent() == RequestPing(2).encode()
     s.silence()
-    owed = core._pending[2].until
+    assert core.owes(2, Ping)
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
     started = s.clock
     assert s.sent(wire_time=0.001) == SetId(1, 2).encode()
     finished = started + 0.001  # the write returned; the bytes still take their wire time
     busy_end = finished + TIMING.wire_time(len(SetId(1, 2).encode()), 9600) + TIMING.latency + 0.2
-    # the free-ID pings may still be answered late: that is waited out before ID 2 is asked again
-    assert s.receive(b"").until == owed
+    # the free-ID pings may still be answered late: a fence of another kind rules that out first
+    assert s.sent() == RequestFirmware(2).encode()
+    s.receive(Firmware(2, 40).encode())
     assert s.sent() == RequestPing(2).encode()  # verified at the new ID ...
     # ... once the busy window is over
     assert [w.when for w in s.waits if type(w) is WaitUntil] == [pytest.approx(busy_end)]
@@ -280,42 +282,72 @@ def test_busy_window_holds_motion_after_release_until_the_window_ends() -> None:
     assert m.clock >= enabled_busy and m.done
 
 
-def test_a_late_answer_is_waited_out_and_never_returned_by_the_next_request() -> None:
-    core = bus_core(115200)
-    first = Stepper(core.ask(RequestPosition(1), retries=0))
+def lost_answer(core: BusCore, device_id: int = 1) -> Stepper[Message]:
+    """A position read whose answer did not come in time (it may still come, late)."""
+    first = Stepper(core.ask(RequestPosition(device_id), retries=0))
     first.sent()
     with pytest.raises(NoAnswer):
         first.silence()
-    owed_until = core._pending[1].until
-    assert owed_until == pytest.approx(first.clock + core.late_answer)
+    assert core.owes(device_id, PositionFeedback)
+    return first
 
+
+def test_a_late_answer_is_ruled_out_by_a_fence_and_never_returned_by_the_next_request() -> None:
+    core = bus_core(115200)
+    first = lost_answer(core)
     second = Stepper(core.ask(RequestPosition(1)), clock=first.clock)
-    quiet = second.expect(Receive)  # no request while an answer to the last one may still come
-    assert quiet.until == pytest.approx(owed_until)
-    second.receive(PositionFeedback(1, 0, 111, 0, 0).encode())  # there it is: late, and dropped
+    assert second.sent() == RequestPing(1).encode()  # a fence: its answer is no position
+    second.receive(PositionFeedback(1, 0, 111, 0, 0).encode())  # the late answer comes first: dropped
     assert second.sent() == RequestPosition(1).encode()
-    second.receive(PositionFeedback(1, 0, 222, 0, 0).encode())
+    second.receive(Ping(1).encode() + PositionFeedback(1, 0, 222, 0, 0).encode())  # the fence's, then ours
     assert second.result() == PositionFeedback(1, 0, 222, 0, 0)
-    assert core.stats.quiet_waits == 1 and core.stats.stale_frames == 1 and not core._pending
+    assert core.stats.fences == 1 and core.stats.quiet_waits == 0 and core.stats.stale_frames == 2
+    assert not core._owed
 
 
-def test_a_late_answer_that_never_comes_costs_the_quiet_period_once() -> None:
+def test_a_lost_answer_costs_the_next_read_one_fence_not_a_quiet_period() -> None:
     core = bus_core(115200)
-    first = Stepper(core.ask(RequestPosition(1), retries=0))
-    first.sent()
-    with pytest.raises(NoAnswer):
-        first.silence()
-    owed_until = core._pending[1].until
+    first = lost_answer(core)
     second = Stepper(core.ask(RequestPosition(1)), clock=first.clock)
-    second.receive(b"")
-    assert second.clock == owed_until
+    assert second.sent() == RequestPing(1).encode()
+    # the fence is answered: the controller answers in order, so the lost answer never comes
+    second.receive(Ping(1).encode())
     assert second.sent() == RequestPosition(1).encode()
+    assert second.waits == [] and second.clock - first.clock < 0.001
     second.receive(PositionFeedback(1, 0, 5, 0, 0).encode())
     third = Stepper(core.ask(RequestPosition(1)), clock=second.clock)
-    assert third.expect(Send)  # nothing owed any more: straight to the request
+    assert third.expect(Send).data == RequestPosition(1).encode()  # nothing owed any more: no fence
 
 
-def test_an_answer_to_an_earlier_attempt_answers_the_call_and_the_next_call_waits_for_the_other() -> None:
+def test_unanswered_fences_fall_back_to_waiting_the_late_answer_out() -> None:
+    core = bus_core(115200)
+    first = lost_answer(core)
+    owed_until = core._owed[1][0].until
+    assert owed_until == pytest.approx(first.clock + core.late_answer)
+    second = Stepper(core.ask(RequestPosition(1)), clock=first.clock)
+    for _ in range(FENCES):
+        assert second.sent() == RequestPing(1).encode()
+        second.receive(b"")
+    assert second.expect(Receive).until == pytest.approx(owed_until)  # the quiet period, once
+    second.receive(b"")
+    assert second.sent() == RequestPosition(1).encode() and core.stats.quiet_waits == 1
+
+
+def test_a_fence_answered_by_an_older_fence_is_not_taken_for_its_own() -> None:
+    core = bus_core(115200)
+    first = lost_answer(core)
+    second = Stepper(core.ask(RequestPosition(1), retries=0), clock=first.clock)
+    second.sent()  # fence 1: no answer in time
+    second.receive(b"")
+    second.sent()  # fence 2
+    # fence 1's answer, late: it proves the position answer (asked before fence 1) is settled
+    second.receive(Ping(1).encode())
+    assert second.sent() == RequestPosition(1).encode()
+    # owed now: fence 2's answer (it may still come) and this request's own, nothing older
+    assert [o.kind for o in core._owed[1]] == [Ping, PositionFeedback]
+
+
+def test_an_answer_to_an_earlier_attempt_answers_the_call_and_the_next_call_fences_the_other() -> None:
     core = bus_core(115200)
     s = Stepper(core.ask(RequestPosition(1), retries=1))
     s.sent()
@@ -324,7 +356,19 @@ def test_an_answer_to_an_earlier_attempt_answers_the_call_and_the_next_call_wait
     s.receive(PositionFeedback(1, 0, 7, 0, 0).encode())  # attempt 1's answer, late, or attempt 2's
     assert s.result() == PositionFeedback(1, 0, 7, 0, 0)
     nxt = Stepper(core.ask(RequestPosition(1)), clock=s.clock)
-    assert type(nxt.action) is Receive  # one answer may still be on its way: wait for it first
+    assert nxt.sent() == RequestPing(1).encode()  # one answer may still be on its way: fenced first
+
+
+def test_a_duplicated_answer_is_given_time_to_show_before_the_same_request() -> None:
+    core = bus_core(9600)
+    s = Stepper(core.ask(RequestPosition(1)))
+    s.sent()
+    s.receive(PositionFeedback(1, 0, 7, 0, 0).encode())
+    taken = s.clock
+    nxt = Stepper(core.ask(RequestPosition(1)), clock=taken)
+    assert [w.when for w in nxt.waits] == [pytest.approx(taken + 2 * TIMING.wire_time(1, 9600))]
+    other = Stepper(core.ask(RequestPing(1)), clock=taken)  # another request: no copy to fear
+    assert other.waits == []
 
 
 def test_broadcast_read_asks_a_missing_motor_again_and_takes_its_late_answer() -> None:
@@ -341,7 +385,7 @@ def test_broadcast_read_asks_a_missing_motor_again_and_takes_its_late_answer() -
     states = s.result()
     assert list(states) == [1, 2, 3]
     assert [s.device_position for s in states.values() if isinstance(s, MotorState)] == [1.0, 2.0, 3.0]
-    assert type(Stepper(core.ask(RequestPosition(2))).action) is Receive  # the other answer is still owed
+    assert Stepper(core.ask(RequestPosition(2))).sent() == RequestPing(2).encode()  # the other is still owed: fenced
 
 
 def test_broadcast_read_is_whole_even_when_a_motor_never_answers() -> None:

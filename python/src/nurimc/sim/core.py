@@ -117,6 +117,7 @@ class BusCore:
         self._garbler = Garbler(seed + 0x6A5)
         self._store = StateStore(state_dir) if state_dir is not None else None
         self._host_free_at = 0.0
+        self._uart_free: dict[int, float] = {}  # per controller slot: when its last answer ends
         self._ticker: threading.Thread | None = None
         self._closing = threading.Event()
         if self.virtual is not None:
@@ -274,7 +275,12 @@ class BusCore:
         if delay is None:
             log.debug("id %d answer lost (miss fault)", reply.controller.id)
             return
-        tx = Transmission(reply.start + delay, reply.baud, bytearray(reply.frame), [reply.controller.id])
+        # one UART per controller: its answers leave in the order they were asked for, never
+        # overlapping (a late answer holds back the ones after it, as on a real controller)
+        start = max(reply.start + delay, self._uart_free.get(reply.controller.slot, 0.0))
+        frame = reply.frame * 2 if self.faults.duplicate() else reply.frame
+        tx = Transmission(start, reply.baud, bytearray(frame), [reply.controller.id])
+        self._uart_free[reply.controller.slot] = tx.end
         if log.isEnabledFor(logging.DEBUG):
             log.debug("id %d <- %s  [%s]", reply.controller.id, decode(reply.frame), reply.frame.hex(" "))
         merged = True

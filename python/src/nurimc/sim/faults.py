@@ -18,10 +18,11 @@ class FaultConfig:
     delay_ms: float = 0.0  # an answer starts this much later ...
     delay_rate: float = 1.0  # ... with this probability
     miss_rate: float = 0.0  # a controller does not answer at all
+    dup_rate: float = 0.0  # an answer arrives twice, back to back (a repeating adapter or line)
     echo: bool = False  # the adapter echoes the host's own bytes back to it
 
     def __post_init__(self) -> None:
-        for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate"):
+        for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate", "dup_rate"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
                 raise ValueError(f"fault {name} = {value} is not a probability; use 0..1")
@@ -32,7 +33,15 @@ class FaultConfig:
 
     @property
     def active(self) -> bool:
-        return bool(self.drop_rate or self.flip_rate or self.noise_rate or self.delay_ms or self.miss_rate or self.echo)
+        return bool(
+            self.drop_rate
+            or self.flip_rate
+            or self.noise_rate
+            or self.delay_ms
+            or self.miss_rate
+            or self.dup_rate
+            or self.echo
+        )
 
 
 class FaultInjector:
@@ -41,7 +50,7 @@ class FaultInjector:
     def __init__(self, config: FaultConfig, seed: int) -> None:
         self.config = config
         self.rng = random.Random(seed)
-        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0}
+        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0, "duplicated": 0}
 
     def corrupt(self, data: bytes, noise: bool) -> bytes:
         """The bytes as they arrive after drops, bit flips and (towards the host) noise bursts."""
@@ -72,3 +81,10 @@ class FaultInjector:
             self.counts["delayed"] += 1
             return c.delay_ms / 1000
         return 0.0
+
+    def duplicate(self) -> bool:
+        """Does this answer arrive twice?"""
+        if self.config.dup_rate and self.rng.random() < self.config.dup_rate:
+            self.counts["duplicated"] += 1
+            return True
+        return False
