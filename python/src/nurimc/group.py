@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from typing import Protocol
 
-from .client.actions import Now, Procedure
+from .client.actions import Procedure
 from .client.core import BusCore
 from .errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
 from .motor import (
@@ -28,7 +28,7 @@ from .motor import (
     SyncRunner,
     _Call,
 )
-from .protocol import Command, PositionFeedback, RequestPosition, SetResponseTime
+from .protocol import Command, RequestPosition, SetResponseTime
 from .settings import SETTINGS
 
 FEEDBACK_LENGTH = 12  # bytes of a position feedback frame
@@ -78,18 +78,16 @@ def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Proce
         return {}
     core = motors[0].core
     ids = [m.id for m in motors]
-    core.forget_expired((yield Now()))
-    # a motor that may still send a late answer to an earlier call is asked on its own, behind a fence
-    owing = {i for i in ids if core.owes(i, PositionFeedback)}
-    answers, _ = yield from core.broadcast_ask(RequestPosition, broadcast_window(core, len(motors), slot), ids=ids)
+    window = broadcast_window(core, len(motors), slot)
+    answers, _ = yield from core.broadcast_ask(RequestPosition, window, ids=ids, ordered=True)
     got = {a.id: a for a in answers}
     out: dict[int, MotorState | Exception] = {}
     for motor in motors:
         if motor.id in got:
             out[motor.id] = motor.state_from(got[motor.id])
             continue
-        try:  # its late answer to the broadcast, if it comes now, answers this call too
-            answer = yield from core.ask(RequestPosition(motor.id), own_pending=motor.id not in owing)
+        try:  # asked on its own, behind a fence: its late answer to the broadcast cannot be taken
+            answer = yield from core.ask(RequestPosition(motor.id))
             out[motor.id] = motor.state_from(answer)
         except (NoAnswer, UnexpectedAnswer) as err:
             out[motor.id] = err

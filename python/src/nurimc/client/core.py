@@ -250,7 +250,8 @@ class BusCore:
             self._owe(device_id, answer_cls, sent.finished + deadline + self.late_answer)
             parser = StreamParser()
             while self.owes(device_id, kind):
-                data = yield Receive(64, sent.finished + deadline)
+                # no more than the fence's answer: a read returns as soon as that much has come
+                data = yield Receive(max(1, answer_cls.SPEC.size + 4 - parser.pending), sent.finished + deadline)
                 if data:
                     self._now = yield Now()
                 for message in parser.feed(data) if data else parser.finish():
@@ -394,6 +395,7 @@ class BusCore:
         window: float,
         expect: int | None = None,
         ids: Sequence[int] | None = None,
+        ordered: bool = False,
     ) -> Procedure[tuple[list[Message], int]]:
         """Send a request to ID 0xFF and collect every answer within `window` seconds
         (or until `expect` answers from distinct IDs, or one from each of `ids`, have come).
@@ -401,7 +403,9 @@ class BusCore:
         Outside the document's §17 (which gives requests IDs 0-254 only), but controllers answer
         it each after its own response time: answers collide unless those are staggered.
         With `ids`, only their answers count and each missing one is left owed, for a
-        follow-up ask(..., own_pending=True). Returns (answers, bytes that formed no frame).
+        follow-up ask(..., own_pending=True). `ordered`: the IDs answer in the order given
+        (staggered response times), so once the last one has answered, an earlier one that has
+        not is late and the window need not run out. Returns (answers, bytes that formed no frame).
         """
         cls = answer_class(request_cls)
         wanted: set[int] | None = None
@@ -432,6 +436,8 @@ class BusCore:
                     settled.add(message.id)
             if not data or (expect is not None and len(heard | settled) >= expect):
                 break
+            if ordered and ids and ids[-1] in heard | settled:
+                break  # the last to answer has: any missing answer is late (left owed)
         self.stats.dropped_bytes += parser.stats.dropped_bytes
         return answers, parser.stats.dropped_bytes
 

@@ -58,21 +58,25 @@ class Performer:
         self.on_note = on_note
         self.clock: Clock = clock or REAL_CLOCK
         self._late_read_for: float | None = None
+        self._late_read_found = False
 
     def read_timeout(self, until: float) -> float | None:
         """Seconds to wait in a read ending at `until`, or None: no read, time is up.
 
-        Once `until` has passed, one short read still takes what arrived meanwhile, so a host
-        that woke late (loaded) loses nothing; the next read for that `until` ends the wait."""
+        Once `until` has passed, short reads still take what arrived meanwhile (as long as each
+        finds bytes: several answers may be waiting), so a host that woke late (loaded) loses
+        nothing; the first late read that finds nothing ends the wait."""
         remaining = until - self.clock.now()
         if remaining > 0:
             return remaining
-        if self._late_read_for == until:
+        if self._late_read_for == until and not self._late_read_found:
             return None
         self._late_read_for = until
+        self._late_read_found = False
         return LATE_READ
 
     def received(self, data: bytes) -> bytes:
+        self._late_read_found = bool(data)
         if data:
             for listener in self.listeners:
                 listener.record("rx", data)
