@@ -11,8 +11,8 @@ from nurimc.client.actions import Receive, Send, SetBaud, WaitUntil
 from nurimc.client.core import FENCES, BusCore
 from nurimc.client.timing import MAX_RESPONSE_TIME, Timing
 from nurimc.config import change_baud, change_id
-from nurimc.discovery import WALK_RESPONSE_TIME, Found, Progress, discover
-from nurimc.errors import CallTimeout, ControllerBusy, IdInUse, NoAnswer, SettingNotApplied
+from nurimc.discovery import Found, Progress, RateSkipped, discover
+from nurimc.errors import CallTimeout, ControllerBusy, IdInUse, NoAnswer, RateRefused, SettingNotApplied
 from nurimc.group import read_states_broadcast
 from nurimc.motor import MotorProcedures, MotorState
 from nurimc.protocol import (
@@ -68,20 +68,23 @@ def test_discovery_pings_each_rate_once_confirms_and_returns_to_the_old_rate() -
     assert core.baudrate == 57600 and core.timing is TIMING
 
 
-def test_discovery_walks_ids_only_where_answers_collide() -> None:
+def test_discovery_walks_ids_only_where_answers_collide_at_the_pace_the_broadcast_measured() -> None:
     core = bus_core(9600)
     s = Stepper(discover(core, rates=[9600]))
     s.baud()
     assert s.sent() == BROADCAST_PING
+    s.clock += 0.0075  # the garble ends 7.5 ms after the broadcast was written
     s.receive(b"\xff\xfe\x00\x07\x13")  # two answers on top of each other
     s.silence()
-    walk_deadline = TIMING.answer_deadline(6, 6, 9600, WALK_RESPONSE_TIME)
+    char = 10 / 9600
+    # every answer began one frame before the last byte; two characters and the latency of slack
+    wait = 0.0075 - 6 * char + 2 * char + TIMING.latency
     found: list[Found] = []
     for device_id in range(255):
         assert s.notes[-1] == Progress(9600, 0, 1, device_id, tuple(found))
         assert s.sent() == RequestPing(device_id).encode()
         receive = s.expect(Receive)
-        assert receive.until == pytest.approx(s.clock + walk_deadline)  # short: the walk's own timing
+        assert receive.until == pytest.approx(s.clock + wait)  # only until an answer would have begun
         if device_id == 7:
             s.receive(Ping(7).encode())
             found.append(Found(7, 9600, None))
@@ -89,21 +92,45 @@ def test_discovery_walks_ids_only_where_answers_collide() -> None:
             s.receive(broken(Ping(9).encode()))
             s.silence()
             found.append(Found(9, 9600, None, collision=True))
+        elif device_id == 12:
+            s.silence()  # ID 12 answers late: during the next ID's ping, and is found all the same
+        elif device_id == 13:
+            s.receive(Ping(12).encode())
+            s.silence()
+            found.append(Found(12, 9600, None))
         else:
             s.silence()
-    assert core.timing is TIMING  # the walk's timing is put back
     assert s.baud() == 9600
     assert s.sent() == RequestFirmware(7).encode()
     s.receive(Firmware(7, 3).encode())
     assert s.baud() == 9600
     assert s.sent() == RequestFirmware(9).encode()
-    s.silence()
-    s.sent()
-    s.silence()
-    s.sent()
-    s.silence()  # retried, then reported without a version
+    for _ in range(3):  # retried, then reported without a version
+        s.silence()
+        if type(s.action) is Send:
+            s.sent()
     assert s.baud() == 9600
-    assert s.result() == [Found(7, 9600, 3), Found(9, 9600, None, collision=True)]
+    assert s.sent() == RequestFirmware(12).encode()
+    s.receive(Firmware(12, 5).encode())
+    assert s.baud() == 9600
+    assert s.result() == [Found(7, 9600, 3), Found(9, 9600, None, collision=True), Found(12, 9600, 5)]
+    assert core.timing is TIMING
+
+
+def test_discovery_skips_a_rate_the_port_refuses_with_one_note_and_goes_on() -> None:
+    core = bus_core(57600)
+    s = Stepper(discover(core, rates=[115200, 9600]))
+    assert s.expect(SetBaud) == SetBaud(9600)
+    s.fail(RateRefused("the adapter at /dev/ttyUSB0 cannot be set to 9600 bps ([Errno 22] Invalid argument)"))
+    assert core.baudrate == 57600  # the port kept its rate, and so did the bus
+    assert s.notes == [
+        RateSkipped(9600, "the adapter at /dev/ttyUSB0 cannot be set to 9600 bps ([Errno 22] Invalid argument)")
+    ]
+    assert s.baud() == 115200  # the scan goes on
+    assert s.sent() == BROADCAST_PING
+    s.silence()
+    assert s.baud() == 57600
+    assert s.result() == []
 
 
 def play_discovery(s: Stepper[list[Found]], core: BusCore, limit: int | None = None) -> list[type]:
@@ -164,19 +191,6 @@ def test_a_port_that_stays_dead_reports_the_first_failure_and_the_old_rate() -> 
     assert core.baudrate == 57600
 
 
-def test_a_discovery_closed_mid_walk_puts_its_timing_back() -> None:
-    core = bus_core(9600)
-    s = Stepper(discover(core, rates=[9600]))
-    s.baud()
-    s.sent()
-    s.receive(b"\x00\x13")  # garbled: walk
-    s.silence()
-    s.sent()  # pinging ID 0 with the walk's timing
-    assert core.timing is not TIMING
-    s.procedure.close()  # abandoned: no further action, but no wrong state either
-    assert core.timing is TIMING
-
-
 # -- configuration -------------------------------------------------------------------------
 def test_change_id_checks_both_ids_writes_once_and_verifies_after_the_busy_window() -> None:
     core = bus_core(9600, busy_window=0.2)
@@ -212,9 +226,25 @@ def test_change_id_is_refused_when_the_new_id_answers() -> None:
         s.receive(Ping(2).encode())
 
 
+def rate_checked(s: Stepper[int]) -> None:
+    """A baud change first checks that the port can run at the new rate: there and back, nothing sent."""
+    assert s.baud() == 115200
+    assert s.baud() == 9600
+
+
+def test_change_baud_to_a_rate_the_adapter_refuses_sends_nothing() -> None:
+    core = bus_core(9600, busy_window=0.05)
+    s = Stepper(change_baud(core, 1, 250000))
+    assert s.expect(SetBaud) == SetBaud(250000)
+    with pytest.raises(RateRefused, match=r"ID 1 was not changed \(at 250000 bps it would be out of reach\)"):
+        s.fail(RateRefused("the adapter at /dev/ttyUSB0 cannot be set to 250000 bps"))
+    assert core.baudrate == 9600
+
+
 def test_change_baud_switches_the_host_and_verifies_at_the_new_rate() -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
     assert s.sent() == SetBaudCommand(1, baud_index(115200)).encode()
@@ -228,6 +258,7 @@ def test_change_baud_switches_the_host_and_verifies_at_the_new_rate() -> None:
 def test_change_baud_interrupted_after_the_switch_puts_the_host_back(failure: BaseException) -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
     s.sent()
     s.receive(Ping(1).encode())
     s.sent()
@@ -243,6 +274,7 @@ def test_change_baud_interrupted_after_the_switch_puts_the_host_back(failure: Ba
 def test_change_baud_that_did_not_take_says_where_the_controller_is() -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
     s.sent()
     s.receive(Ping(1).encode())
     s.sent()

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, UnexpectedAnswer
+from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, RateRefused, UnexpectedAnswer
 from ..protocol import (
     BROADCAST_ID,
     Command,
@@ -96,6 +96,8 @@ class BusCore:
     #: per ID: the last answer seen from it and when (host clock), for the duplicate rule
     _last_seen: dict[int, tuple[Message, float]] = field(default_factory=dict)
     _now: float = 0.0  # host time the last bytes were received
+    #: seconds from the last broadcast request's write to the last byte heard after it (None: silence)
+    broadcast_span: float | None = None
 
     # -- busy windows ------------------------------------------------------------------------
     def window(self, device_id: int) -> float:
@@ -423,10 +425,12 @@ class BusCore:
             for device_id in set(ids):
                 self._owe(device_id, cls, sent.finished + window + self.late_answer)
         parser, answers, heard, settled = StreamParser(), list[Message](), set[int](), set[int]()
+        self.broadcast_span = None
         while True:
             data = yield Receive(cls.SPEC.size + 4, sent.finished + window)
             if data:
                 self._now = yield Now()
+                self.broadcast_span = self._now - sent.finished
             for message in parser.feed(data) if data else parser.finish():
                 if type(message) is cls and (wanted is None or message.id in wanted) and message.id not in heard:
                     self._take(message)
@@ -441,6 +445,47 @@ class BusCore:
         self.stats.dropped_bytes += parser.stats.dropped_bytes
         return answers, parser.stats.dropped_bytes
 
+    def probe(self, request: Request, start_within: float) -> Procedure[tuple[list[Message], bool]]:
+        """Send `request` and listen only until an answer would have begun (`start_within`
+        seconds after the write returned), or, once bytes have begun, until a whole answer could
+        have come. For walking IDs at the wire's pace (discovery). Returns every answer of the
+        request's class heard, from any ID (a late answer to an earlier probe names its ID), and
+        whether bytes came that formed no frame (answers on top of each other)."""
+        cls = answer_class(type(request))
+        size = cls.SPEC.size + 4
+        char = self.timing.wire_time(1, self.baudrate)
+        parser, got = StreamParser(), list[Message]()
+        held = yield Discard()  # what came since the last probe: late answers still count
+        if held:
+            early = StreamParser()
+            for message in [*early.feed(held), *early.finish()]:
+                if type(message) is cls:
+                    self._resolve(message)
+                    got.append(message)
+        sent: Sent = yield Send(request.encode())
+        self.stats.requests += 1
+        until = sent.finished + start_within
+        self._owe(request.id, cls, until + self.timing.wire_time(size, self.baudrate) + self.late_answer)
+        began = False
+        while True:
+            data = yield Receive(max(1, size - parser.pending), until)
+            if data and not began:
+                began = True
+                self._now = yield Now()
+                until = max(until, self._now + (size + 1) * char + self.timing.latency)
+            for message in parser.feed(data) if data else parser.finish():
+                if type(message) is cls:
+                    self._resolve(message)
+                    got.append(message)
+                elif isinstance(message, Request):
+                    self.stats.echo_frames += 1
+                else:
+                    self._settle_frame(message)
+            if not data or any(m.id == request.id for m in got):
+                break
+        self.stats.dropped_bytes += parser.stats.dropped_bytes
+        return got, parser.stats.dropped_bytes > 0
+
     def return_to_baud(self, rate: int, failure: BaseException) -> Procedure[None]:
         """Cleanup after `failure` (docs/drivers.md): switch back to `rate`. If the port fails that
         too (gone for good), the first failure stays the one reported, with a note saying so."""
@@ -449,13 +494,30 @@ class BusCore:
         except Exception as also:
             failure.add_note(f"nurimc: could not return the host to {rate} bps: {also}")
 
+    def check_rate(self, rate: int, consequence: str = "") -> Procedure[None]:
+        """Raise RateRefused (with `consequence` added) if the port cannot run at `rate`: the
+        host switches to it and back, nothing is sent (docs/library.md, refused rates)."""
+        if rate == self.baudrate:
+            return
+        old = self.baudrate
+        try:
+            yield from self.set_baud(rate)
+        except RateRefused as refused:
+            raise RateRefused(f"{refused}; {consequence}" if consequence else str(refused)) from refused
+        yield from self.set_baud(old)
+
     def set_baud(self, rate: int) -> Procedure[None]:
         """Switch the host's rate. Answers still owed at the old rate are forgotten: at another
         rate they can only arrive as broken bytes, never as a frame to be taken for fresh."""
+        refused = False
         try:
             yield SetBaud(rate)
-        finally:  # a port that failed to switch has still taken the rate as its setting (pyserial)
-            if rate != self.baudrate:
-                self._owed.clear()
-                self._last_seen.clear()
-            self.baudrate = rate
+        except RateRefused:  # the port kept its rate (the transport put it back): so does the bus
+            refused = True
+            raise
+        finally:  # a port that failed otherwise has still taken the rate as its setting (pyserial)
+            if not refused:
+                if rate != self.baudrate:
+                    self._owed.clear()
+                    self._last_seen.clear()
+                self.baudrate = rate
