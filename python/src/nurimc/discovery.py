@@ -5,10 +5,11 @@ time). Clean answers name the controllers directly; silence means nobody listens
 rate. Only if bytes came back garbled (several controllers answering together, as controllers
 that share a rate and the default response time do) are the IDs walked one by one at that
 rate. The broadcast has measured how soon answers begin on this bus (request on the wire,
-response time, adapter), so each ping of the walk waits only until an answer would have
-begun, and a whole frame once one has: the walk runs at the wire floor (one ping plus the
-shortest wait in which an answer would have started, per ID; benchmarks/wire_bench.py). A
-late answer still names its ID, so it is found wherever it turns up. Rates are tried most
+response time, adapter), so each request of the walk (a firmware request: as short as a
+ping, and its answer says the firmware) waits only until an answer would have begun, and a
+whole frame once one has: the walk runs at the wire floor (one request plus the shortest wait
+in which an answer would have started, per ID; benchmarks/wire_bench.py). A late answer
+still names its ID, so it is found wherever it turns up. Rates are tried most
 likely first. Discovery never writes a setting: only pings and firmware requests go out.
 The vendor's tool pings every ID at every rate, 60 ms per try: 20-30 minutes.
 """
@@ -109,7 +110,9 @@ def discover(
             garbled, heard, span = True, set[int](), None
             if broadcast and ids is None:
                 window = core.timing.answer_deadline(PING_LENGTH, PING_LENGTH, rate, MAX_RESPONSE_TIME)
-                answers, dropped = yield from core.broadcast_ask(RequestPing, window)
+                # silence until an answer would have begun (any response time) means nobody is here
+                begun = window - core.timing.wire_time(PING_LENGTH - 1, rate)
+                answers, dropped = yield from core.broadcast_ask(RequestPing, window, start_within=begun)
                 heard = {a.id for a in answers}
                 garbled, span = dropped > 0, core.broadcast_span
             for device_id in sorted(heard):
@@ -121,16 +124,20 @@ def discover(
                 if device_id in heard:
                     continue
                 yield Note(Progress(rate, index, len(rate_list), device_id, tuple(found)))
-                answers, collided = yield from core.probe(RequestPing(device_id), start_within)
+                # a firmware request: as short as a ping, and its answer names the firmware too
+                answers, collided = yield from core.probe(RequestFirmware(device_id), start_within)
                 for answer in answers:
                     if answer.id not in heard:
                         heard.add(answer.id)
-                        found.append(Found(answer.id, rate, None))
+                        found.append(Found(answer.id, rate, answer.fields()["version"]))
                 if device_id not in heard and collided:
                     heard.add(device_id)
                     found.append(Found(device_id, rate, None, collision=True))
         result = []
-        for f in found:  # firmware tells the user what answered; also confirms the find
+        for f in found:  # firmware tells the user what answered; also confirms a find of the broadcast
+            if f.firmware is not None:
+                result.append(f)
+                continue
             yield from core.set_baud(f.baudrate)
             try:
                 answer = yield from core.ask(RequestFirmware(f.id))

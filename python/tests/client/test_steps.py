@@ -55,7 +55,9 @@ def test_discovery_pings_each_rate_once_confirms_and_returns_to_the_old_rate() -
     assert s.notes == [Progress(9600, 0, 2, None, ())]
     assert s.sent() == BROADCAST_PING
     window = TIMING.answer_deadline(6, 6, 9600, MAX_RESPONSE_TIME)
-    assert s.receive(Ping(5).encode()).until == pytest.approx(100.0 + window)
+    begun = window - TIMING.wire_time(5, 9600)  # silence by then: nobody at this rate
+    assert s.receive(Ping(5).encode()).until == pytest.approx(100.0 + begun)
+    assert s.expect(Receive).until == pytest.approx(100.0 + window)  # an answer began: the whole window
     s.silence()
     assert s.baud() == 115200
     assert s.sent() == BROADCAST_PING
@@ -82,36 +84,30 @@ def test_discovery_walks_ids_only_where_answers_collide_at_the_pace_the_broadcas
     found: list[Found] = []
     for device_id in range(255):
         assert s.notes[-1] == Progress(9600, 0, 1, device_id, tuple(found))
-        assert s.sent() == RequestPing(device_id).encode()
+        assert s.sent() == RequestFirmware(device_id).encode()
         receive = s.expect(Receive)
         assert receive.until == pytest.approx(s.clock + wait)  # only until an answer would have begun
         if device_id == 7:
-            s.receive(Ping(7).encode())
-            found.append(Found(7, 9600, None))
+            s.receive(Firmware(7, 3).encode())
+            found.append(Found(7, 9600, 3))
         elif device_id == 9:
-            s.receive(broken(Ping(9).encode()))
+            s.receive(broken(Firmware(9, 4).encode()))
             s.silence()
             found.append(Found(9, 9600, None, collision=True))
         elif device_id == 12:
-            s.silence()  # ID 12 answers late: during the next ID's ping, and is found all the same
+            s.silence()  # ID 12 answers late: during the next ID's request, and is found all the same
         elif device_id == 13:
-            s.receive(Ping(12).encode())
+            s.receive(Firmware(12, 5).encode())
             s.silence()
-            found.append(Found(12, 9600, None))
+            found.append(Found(12, 9600, 5))
         else:
             s.silence()
-    assert s.baud() == 9600
-    assert s.sent() == RequestFirmware(7).encode()
-    s.receive(Firmware(7, 3).encode())
-    assert s.baud() == 9600
+    assert s.baud() == 9600  # only the collision is asked again (the walk's answers named their firmware)
     assert s.sent() == RequestFirmware(9).encode()
     for _ in range(3):  # retried, then reported without a version
         s.silence()
         if type(s.action) is Send:
             s.sent()
-    assert s.baud() == 9600
-    assert s.sent() == RequestFirmware(12).encode()
-    s.receive(Firmware(12, 5).encode())
     assert s.baud() == 9600
     assert s.result() == [Found(7, 9600, 3), Found(9, 9600, None, collision=True), Found(12, 9600, 5)]
     assert core.timing is TIMING

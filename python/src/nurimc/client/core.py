@@ -96,7 +96,7 @@ class BusCore:
     #: per ID: the last answer seen from it and when (host clock), for the duplicate rule
     _last_seen: dict[int, tuple[Message, float]] = field(default_factory=dict)
     _now: float = 0.0  # host time the last bytes were received
-    #: seconds from the last broadcast request's write to the last byte heard after it (None: silence)
+    #: seconds from the last broadcast request's write call to the last byte heard after it (None: silence)
     broadcast_span: float | None = None
 
     # -- busy windows ------------------------------------------------------------------------
@@ -398,6 +398,7 @@ class BusCore:
         expect: int | None = None,
         ids: Sequence[int] | None = None,
         ordered: bool = False,
+        start_within: float | None = None,
     ) -> Procedure[tuple[list[Message], int]]:
         """Send a request to ID 0xFF and collect every answer within `window` seconds
         (or until `expect` answers from distinct IDs, or one from each of `ids`, have come).
@@ -426,11 +427,13 @@ class BusCore:
                 self._owe(device_id, cls, sent.finished + window + self.late_answer)
         parser, answers, heard, settled = StreamParser(), list[Message](), set[int](), set[int]()
         self.broadcast_span = None
+        until = sent.finished + (window if start_within is None else min(window, start_within))
         while True:
-            data = yield Receive(cls.SPEC.size + 4, sent.finished + window)
+            data = yield Receive(cls.SPEC.size + 4, until)
             if data:
                 self._now = yield Now()
-                self.broadcast_span = self._now - sent.finished
+                self.broadcast_span = self._now - sent.started  # from before the write: never short
+                until = sent.finished + window
             for message in parser.feed(data) if data else parser.finish():
                 if type(message) is cls and (wanted is None or message.id in wanted) and message.id not in heard:
                     self._take(message)
