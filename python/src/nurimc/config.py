@@ -95,6 +95,8 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
 
 
 def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int) -> Procedure[int]:
+    # an adapter that cannot run at the new rate would lose the controller: refused before anything is sent
+    yield from core.check_rate(rate, f"ID {device_id} was not changed (at {rate} bps it would be out of reach)")
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
     command = SetBaud(device_id, index)

@@ -1,11 +1,17 @@
-"""Find every controller on the bus across the 18 rates and 255 IDs, in seconds.
+"""Find every controller on the bus across the 18 rates and 255 IDs, at the wire's pace.
 
 For each rate: one broadcast ping (every controller at that rate answers after its response
-time). Clean answers name the controllers directly. Only if bytes came back garbled (several
-controllers answering together, e.g. all at the default ID 0 or the default response time)
-are the IDs walked one by one at that rate, each ping timing out as soon as the wire says no
-answer can have started. Rates are tried most likely first. The vendor's tool pings every ID
-at every rate, 60 ms per try: 20-30 minutes.
+time). Clean answers name the controllers directly; silence means nobody listens at that
+rate. Only if bytes came back garbled (several controllers answering together, as controllers
+that share a rate and the default response time do) are the IDs walked one by one at that
+rate. The broadcast has measured how soon answers begin on this bus (request on the wire,
+response time, adapter), so each request of the walk (a firmware request: as short as a
+ping, and its answer says the firmware) waits only until an answer would have begun, and a
+whole frame once one has: the walk runs at the wire floor (one request plus the shortest wait
+in which an answer would have started, per ID; benchmarks/wire_bench.py). A late answer
+still names its ID, so it is found wherever it turns up. Rates are tried most
+likely first. Discovery never writes a setting: only pings and firmware requests go out.
+The vendor's tool pings every ID at every rate, 60 ms per try: 20-30 minutes.
 """
 
 from __future__ import annotations
@@ -15,8 +21,8 @@ from dataclasses import dataclass, field
 
 from .client.actions import Note, Procedure
 from .client.core import BusCore
-from .client.timing import MAX_RESPONSE_TIME, Timing
-from .errors import CorruptedAnswer, NoAnswer, UnexpectedAnswer
+from .client.timing import MAX_RESPONSE_TIME
+from .errors import NoAnswer, RateRefused, UnexpectedAnswer
 from .protocol import BAUD_RATES, RequestFirmware, RequestPing
 
 # Most likely first: the default, then the usual fast rates, then the rest.
@@ -40,7 +46,9 @@ RATE_ORDER = (
     300,
     110,
 )
-WALK_RESPONSE_TIME = 0.005  # response time assumed while walking IDs (settings up to 50 x 100 us)
+#: response time assumed while walking IDs without a broadcast to measure it (settings up to 50 x 100 us)
+WALK_RESPONSE_TIME = 0.005
+PING_LENGTH = 6  # bytes of a ping request and of its answer
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,43 +68,76 @@ class Progress:
     found: tuple[Found, ...] = field(default=())
 
 
+@dataclass(frozen=True, slots=True)
+class RateSkipped:
+    """A rate the port refused (note, then the scan goes on): `reason` names rate and adapter."""
+
+    rate: int
+    reason: str
+
+
+def walk_wait(core: BusCore, span: float | None) -> float:
+    """Seconds after a walk ping's write by which its answer would have begun.
+
+    `span`: from the broadcast ping's write to the last byte heard after it: every answer
+    began at least one answer-frame earlier, so answers begin by span - frame; two characters
+    and the adapter's latency (its jitter) are the slack. Without a measurement: the wire
+    times, an assumed response time and the adapter latency both ways."""
+    rate, timing = core.baudrate, core.timing
+    char = timing.wire_time(1, rate)
+    if span is None:
+        return timing.wire_time(PING_LENGTH, rate) + WALK_RESPONSE_TIME + 2 * timing.latency + timing.margin + char
+    return max(span - timing.wire_time(PING_LENGTH, rate), 0.0) + 2 * char + timing.latency
+
+
 def discover(
     core: BusCore, rates: Iterable[int] | None = None, ids: Iterable[int] | None = None, broadcast: bool = True
 ) -> Procedure[list[Found]]:
-    """Find controllers. Progress is reported as Note(Progress(...)). Leaves the bus at its old rate."""
+    """Find controllers. Progress is reported as Note(Progress(...)) (and Note(RateSkipped(...))
+    for a rate the port refuses). Leaves the bus at its old rate."""
     rate_list = [r for r in RATE_ORDER if r in set(rates or BAUD_RATES)]
     id_list = list(range(255) if ids is None else ids)
-    original, original_timing = core.baudrate, core.timing
+    original = core.baudrate
     found: list[Found] = []
     try:
         for index, rate in enumerate(rate_list):
-            yield from core.set_baud(rate)
+            try:
+                yield from core.set_baud(rate)
+            except RateRefused as refused:
+                yield Note(RateSkipped(rate, str(refused)))
+                continue
             yield Note(Progress(rate, index, len(rate_list), None, tuple(found)))
-            garbled, heard = True, set[int]()
+            garbled, heard, span = True, set[int](), None
             if broadcast and ids is None:
-                window = core.timing.answer_deadline(6, 6, rate, MAX_RESPONSE_TIME)
-                answers, dropped = yield from core.broadcast_ask(RequestPing, window)
+                window = core.timing.answer_deadline(PING_LENGTH, PING_LENGTH, rate, MAX_RESPONSE_TIME)
+                # silence until an answer would have begun (any response time) means nobody is here
+                begun = window - core.timing.wire_time(PING_LENGTH - 1, rate)
+                answers, dropped = yield from core.broadcast_ask(RequestPing, window, start_within=begun)
                 heard = {a.id for a in answers}
-                garbled = dropped > 0
+                garbled, span = dropped > 0, core.broadcast_span
             for device_id in sorted(heard):
                 found.append(Found(device_id, rate, None))
             if not garbled:
                 continue
-            core.timing = Timing(original_timing.latency, original_timing.margin, WALK_RESPONSE_TIME)
+            start_within = walk_wait(core, span)
             for device_id in id_list:
                 if device_id in heard:
                     continue
                 yield Note(Progress(rate, index, len(rate_list), device_id, tuple(found)))
-                try:
-                    yield from core.ask(RequestPing(device_id), retries=0)
-                    found.append(Found(device_id, rate, None))
-                except CorruptedAnswer:
+                # a firmware request: as short as a ping, and its answer names the firmware too
+                answers, collided = yield from core.probe(RequestFirmware(device_id), start_within)
+                for answer in answers:
+                    if answer.id not in heard:
+                        heard.add(answer.id)
+                        found.append(Found(answer.id, rate, answer.fields()["version"]))
+                if device_id not in heard and collided:
+                    heard.add(device_id)
                     found.append(Found(device_id, rate, None, collision=True))
-                except (NoAnswer, UnexpectedAnswer):
-                    pass
-            core.timing = original_timing
         result = []
-        for f in found:  # firmware tells the user what answered; also confirms the find
+        for f in found:  # firmware tells the user what answered; also confirms a find of the broadcast
+            if f.firmware is not None:
+                result.append(f)
+                continue
             yield from core.set_baud(f.baudrate)
             try:
                 answer = yield from core.ask(RequestFirmware(f.id))
@@ -106,10 +147,7 @@ def discover(
     except GeneratorExit:  # closed by its driver: no I/O possible any more (finally still runs)
         raise
     except BaseException as failure:  # an I/O error, a timeout or a cancellation thrown in (docs/drivers.md)
-        core.timing = original_timing
         yield from core.return_to_baud(original, failure)
         raise
-    finally:
-        core.timing = original_timing
     yield from core.set_baud(original)
     return result

@@ -58,6 +58,12 @@ class PortError(NurimcError):
     """The serial port could not be opened or used. The message includes the fix."""
 
 
+class RateRefused(PortError):
+    """The port's adapter or driver cannot be set to a rate (termios EINVAL and the like); the
+    port keeps the rate it had. Discovery skips such a rate with a note; a controller's rate
+    is never changed to one (docs/library.md)."""
+
+
 NO_ANSWER_CAUSES = (
     "the controller is at another baud rate (try `nurimc scan`)",
     "no controller has this ID",

@@ -12,18 +12,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from .client.actions import Procedure
 from .client.core import BusCore
 from .errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
-from .motor import MotorProcedures, MotorState
+from .motor import (
+    AsyncHandle,
+    AsyncMotor,
+    AsyncRunner,
+    Motor,
+    MotorProcedures,
+    MotorState,
+    SyncHandle,
+    SyncRunner,
+    _Call,
+)
 from .protocol import Command, RequestPosition, SetResponseTime
 from .settings import SETTINGS
-
-if TYPE_CHECKING:
-    from .client.aio import AsyncBus
-    from .client.sync import Bus
 
 FEEDBACK_LENGTH = 12  # bytes of a position feedback frame
 
@@ -72,64 +78,95 @@ def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Proce
         return {}
     core = motors[0].core
     ids = [m.id for m in motors]
-    answers, _ = yield from core.broadcast_ask(RequestPosition, broadcast_window(core, len(motors), slot), ids=ids)
+    window = broadcast_window(core, len(motors), slot)
+    answers, _ = yield from core.broadcast_ask(RequestPosition, window, ids=ids, ordered=True)
     got = {a.id: a for a in answers}
     out: dict[int, MotorState | Exception] = {}
     for motor in motors:
         if motor.id in got:
             out[motor.id] = motor.state_from(got[motor.id])
             continue
-        try:  # its late answer to the broadcast, if it comes now, answers this call too
-            answer = yield from core.ask(RequestPosition(motor.id), own_pending=True)
+        try:  # asked on its own, behind a fence: its late answer to the broadcast cannot be taken
+            answer = yield from core.ask(RequestPosition(motor.id))
             out[motor.id] = motor.state_from(answer)
         except (NoAnswer, UnexpectedAnswer) as err:
             out[motor.id] = err
     return out
 
 
-class Group:
+class GroupProcedures:
+    """Everything a group handle does, as procedures on its motors' BusCore."""
+
+    def __init__(self, core: BusCore, motors: Sequence[MotorProcedures]) -> None:
+        self.core = core
+        self.motors = list(motors)
+        self.slot: int | None = None  # response-time units between staggered motors, once staggered
+
+    def command(self, commands: Sequence[Command]) -> Procedure[None]:
+        """Send every command in one write (commands are never answered)."""
+        yield from self.core.tell(*commands)
+
+    def read_states(self) -> Procedure[dict[int, MotorState | Exception]]:
+        """Each motor's state, one request per motor; a missing motor gets its error."""
+        return (yield from read_states(self.motors))
+
+    def stagger(self) -> Procedure[int]:
+        """Space the motors' response times for read_states_broadcast; returns the slot."""
+        self.slot = yield from stagger(self.motors, self.core.baudrate)
+        return self.slot
+
+    def read_states_broadcast(self) -> Procedure[dict[int, MotorState | Exception]]:
+        """Every state from one broadcast request (after stagger()); one entry per motor, in order."""
+        if self.slot is None:
+            raise UsageError("call stagger() first: the motors' response times must be spaced")
+        return (yield from read_states_broadcast(self.motors, self.slot))
+
+
+class SyncBusLike(SyncRunner, Protocol):
+    """What a Group needs of its bus: run procedures and hand out motors (nurimc.Bus)."""
+
+    def motor(self, device_id: int, product: str = "mc") -> Motor: ...
+
+
+class AsyncBusLike(AsyncRunner, Protocol):
+    """What an AsyncGroup needs of its bus (nurimc.AsyncBus)."""
+
+    def motor(self, device_id: int, product: str = "mc") -> AsyncMotor: ...
+
+
+class GroupApi:
+    """The group API, once for both buses (as MotorApi: each call runs its procedure)."""
+
+    procedures: GroupProcedures
+
+    @property
+    def slot(self) -> int | None:
+        """Response-time units between staggered motors (None until stagger())."""
+        return self.procedures.slot
+
+    @slot.setter
+    def slot(self, value: int | None) -> None:
+        self.procedures.slot = value
+
+    command = _Call(GroupProcedures.command)
+    read_states = _Call(GroupProcedures.read_states)
+    stagger = _Call(GroupProcedures.stagger)
+    read_states_broadcast = _Call(GroupProcedures.read_states_broadcast)
+
+
+class Group(GroupApi, SyncHandle):
     """Motors of one sync Bus used together."""
 
-    def __init__(self, bus: Bus, ids: Sequence[int], product: str = "mc") -> None:
+    def __init__(self, bus: SyncBusLike, ids: Sequence[int], product: str = "mc") -> None:
         self.bus = bus
         self.motors = [bus.motor(i, product) for i in ids]
-        self.slot: int | None = None
-
-    def command(self, commands: Sequence[Command]) -> None:
-        self.bus.send(*commands)
-
-    def read_states(self) -> dict[int, MotorState | Exception]:
-        return self.bus.run(read_states([m.procedures for m in self.motors]))
-
-    def stagger(self) -> int:
-        self.slot = self.bus.run(stagger([m.procedures for m in self.motors], self.bus.baudrate))
-        return self.slot
-
-    def read_states_broadcast(self) -> dict[int, MotorState | Exception]:
-        if self.slot is None:
-            raise UsageError("call stagger() first: the motors' response times must be spaced")
-        return self.bus.run(read_states_broadcast([m.procedures for m in self.motors], self.slot))
+        self.procedures = GroupProcedures(bus.core, [m.procedures for m in self.motors])
 
 
-class AsyncGroup:
+class AsyncGroup(GroupApi, AsyncHandle):
     """Motors of one AsyncBus used together: Group's methods, awaited."""
 
-    def __init__(self, bus: AsyncBus, ids: Sequence[int], product: str = "mc") -> None:
+    def __init__(self, bus: AsyncBusLike, ids: Sequence[int], product: str = "mc") -> None:
         self.bus = bus
         self.motors = [bus.motor(i, product) for i in ids]
-        self.slot: int | None = None
-
-    async def command(self, commands: Sequence[Command]) -> None:
-        await self.bus.send(*commands)
-
-    async def read_states(self) -> dict[int, MotorState | Exception]:
-        return await self.bus.run(read_states([m.procedures for m in self.motors]))
-
-    async def stagger(self) -> int:
-        self.slot = await self.bus.run(stagger([m.procedures for m in self.motors], self.bus.baudrate))
-        return self.slot
-
-    async def read_states_broadcast(self) -> dict[int, MotorState | Exception]:
-        if self.slot is None:
-            raise UsageError("call stagger() first: the motors' response times must be spaced")
-        return await self.bus.run(read_states_broadcast([m.procedures for m in self.motors], self.slot))
+        self.procedures = GroupProcedures(bus.core, [m.procedures for m in self.motors])

@@ -312,9 +312,10 @@ class AsyncHandle:
 
 
 class _Call(Generic[P, T]):
-    """One motor call, written once: runs its procedure on the handle's bus, sync or async."""
+    """One handle call, written once: runs its procedure on the handle's bus, sync or async.
+    The handle's `procedures` (MotorProcedures, GroupProcedures) is the procedure's `self`."""
 
-    def __init__(self, procedure: Callable[Concatenate[MotorProcedures, P], Procedure[T]]) -> None:
+    def __init__(self, procedure: Callable[Concatenate[Any, P], Procedure[T]]) -> None:
         self.procedure = procedure
         self.__doc__ = procedure.__doc__
 
@@ -328,7 +329,7 @@ class _Call(Generic[P, T]):
         if handle is None:
             return self
         procedure = self.procedure
-        procedures: MotorProcedures = handle.procedures  # type: ignore[attr-defined]
+        procedures = handle.procedures  # type: ignore[attr-defined]
         run = handle.bus.run  # type: ignore[attr-defined]
 
         @functools.wraps(procedure)

@@ -5,18 +5,20 @@ from __future__ import annotations
 import asyncio
 
 from nurimc import AsyncBus
+from nurimc.client.clock import VirtualClock
 from nurimc.group import read_states
 from nurimc.sim import SimBus
 from nurimc.transport import SerialTransport
 
 
 def test_async_motion_settings_and_concurrency() -> None:
-    sim = SimBus(eeprom_time=0.02)
+    clock = VirtualClock()
+    sim = SimBus(eeprom_time=0.02, clock=clock)
     for device_id in (1, 2):
         sim.add_controller(id=device_id)
 
     async def main() -> None:
-        bus = AsyncBus(SerialTransport(sim.open_serial(), "sim://", latency=0.002))
+        bus = AsyncBus(SerialTransport(sim.open_serial(), "sim://", latency=0.002), clock=clock)
         one, two = bus.motor(1), bus.motor(2)
         assert await one.set("resolution", 1000) == 1000
         assert await one.set("ratio", "2.5") == 2.5
@@ -27,7 +29,7 @@ def test_async_motion_settings_and_concurrency() -> None:
         for _ in range(100):
             if abs((await one.read_state()).position - 60) < 0.5:
                 break
-            await asyncio.sleep(0.02)
+            await clock.sleep_async(0.02)
         assert abs((await one.read_state()).position - 60) < 0.5
         states = await bus.run(read_states([one.procedures, two.procedures]))
         assert set(states) == {1, 2}

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import asyncio
 import inspect
-import time
 from collections.abc import Callable
 
 import pytest
@@ -18,6 +17,7 @@ import pytest
 from nurimc import AsyncBus, Bus, PortError
 from nurimc.client.actions import Procedure, Send, Wait
 from nurimc.client.aio import drive_async
+from nurimc.client.clock import REAL_CLOCK, Clock, VirtualClock
 from nurimc.client.sync import drive
 from nurimc.config import change_baud
 from nurimc.discovery import Found, discover
@@ -36,8 +36,13 @@ class FakeBus(ScriptedTransport):
 
     url = "fake://"
 
-    def __init__(self, fail_at: int | None = None, controllers: dict[int, int] | None = None) -> None:
+    def __init__(
+        self, fail_at: int | None = None, controllers: dict[int, int] | None = None, clock: Clock | None = None
+    ) -> None:
         super().__init__(self._answers)
+        #: reads wait on this clock (virtual by default: a wait moves time, nothing sleeps)
+        self.clock: Clock = VirtualClock() if clock is None else clock
+        self.on_write: Callable[[int], object] | None = None  # called with each write's index
         self.controllers = dict(CONTROLLERS if controllers is None else controllers)
         self.fail_at = fail_at
         self.writes = 0
@@ -55,6 +60,8 @@ class FakeBus(ScriptedTransport):
 
     def write(self, data: bytes) -> None:
         index, self.writes = self.writes, self.writes + 1
+        if self.on_write is not None:
+            self.on_write(index)
         if index == self.fail_at:
             raise PortError("the adapter was unplugged (write failed)")
         super().write(data)
@@ -75,7 +82,7 @@ class FakeBus(ScriptedTransport):
 
     def read(self, max_bytes: int, timeout: float) -> bytes:
         if not self.inbox:
-            time.sleep(timeout)  # nothing comes: a real port waits its timeout out
+            self.clock.sleep(timeout)  # nothing comes: a real port waits its timeout out
             return b""
         return super().read(max_bytes, timeout)
 
@@ -86,7 +93,7 @@ EXPECTED = [Found(5, 115200, 45), Found(9, 1_000_000, 49)]
 
 def writes_of_a_whole_discovery() -> int:
     port = FakeBus()
-    bus = Bus(port)
+    bus = Bus(port, clock=port.clock)
     assert bus.run(discover(bus.core, rates=RATES)) == EXPECTED
     assert port.rate == START_RATE
     return port.writes
@@ -102,7 +109,7 @@ def write_count() -> int:
 def test_a_sync_discovery_whose_port_fails_at_any_write_leaves_the_bus_at_its_old_rate(write_count: int) -> None:
     for index in range(write_count):
         port = FakeBus(fail_at=index)
-        bus = Bus(port)
+        bus = Bus(port, clock=port.clock)
         with pytest.raises(PortError, match="unplugged"):
             bus.run(discover(bus.core, rates=RATES))
         assert port.writes == index + 1  # nothing written after the failure
@@ -114,7 +121,7 @@ def test_an_async_discovery_whose_port_fails_at_any_write_leaves_the_bus_at_its_
     async def main() -> None:
         for index in range(write_count):
             port = FakeBus(fail_at=index)
-            bus = AsyncBus(port)
+            bus = AsyncBus(port, clock=port.clock)
             with pytest.raises(PortError, match="unplugged"):
                 await bus.run(discover(bus.core, rates=RATES))
             assert port.writes == index + 1
@@ -126,19 +133,19 @@ def test_an_async_discovery_whose_port_fails_at_any_write_leaves_the_bus_at_its_
 def test_a_baud_change_whose_port_fails_at_any_write_leaves_the_host_at_its_old_rate() -> None:
     controllers = {5: START_RATE}
     clean = FakeBus(controllers=controllers)
-    bus = Bus(clean, busy_window=0.01)
+    bus = Bus(clean, clock=clean.clock, busy_window=0.01)
     assert bus.run(change_baud(bus.core, 5, 115200)) == 115200
     assert clean.rate == 115200 and clean.controllers[5] == 115200
     for index in range(clean.writes):
         for driver in ("sync", "async"):
             port = FakeBus(fail_at=index, controllers=controllers)
             if driver == "sync":
-                sync_bus = Bus(port, busy_window=0.01)
+                sync_bus = Bus(port, clock=port.clock, busy_window=0.01)
                 with pytest.raises(PortError):
                     sync_bus.run(change_baud(sync_bus.core, 5, 115200))
                 core = sync_bus.core
             else:
-                async_bus = AsyncBus(port, busy_window=0.01)
+                async_bus = AsyncBus(port, clock=port.clock, busy_window=0.01)
                 with pytest.raises(PortError):
                     asyncio.run(async_bus.run(change_baud(async_bus.core, 5, 115200)))
                 core = async_bus.core
@@ -147,7 +154,7 @@ def test_a_baud_change_whose_port_fails_at_any_write_leaves_the_host_at_its_old_
 
 def test_a_sync_call_timeout_is_thrown_in_and_the_bus_restored() -> None:
     port = FakeBus()
-    bus = Bus(port)
+    bus = Bus(port, clock=port.clock)
     with pytest.raises(CallTimeout, match=r"longer than 0\.04 s"):
         bus.run(discover(bus.core, rates=RATES), timeout=0.04)
     assert port.writes < len(RATES)  # abandoned part-way, not run to the end
@@ -156,12 +163,13 @@ def test_a_sync_call_timeout_is_thrown_in_and_the_bus_restored() -> None:
     assert bus.run(discover(bus.core, rates=RATES)) == EXPECTED  # and the bus works after it
 
 
-@pytest.mark.parametrize("how", ["run_timeout", "wait_for", "cancel"])
+@pytest.mark.parametrize("how", ["run_timeout", pytest.param("wait_for", marks=pytest.mark.realtime), "cancel"])
 def test_an_async_timeout_or_cancellation_is_thrown_in_and_the_bus_restored(how: str) -> None:
-    port = FakeBus()
+    # wait_for times out on the event loop's (real) clock; the others run on virtual time
+    port = FakeBus(clock=REAL_CLOCK if how == "wait_for" else None)
 
     async def main() -> None:
-        bus = AsyncBus(port)
+        bus = AsyncBus(port, clock=port.clock)
         call = bus.run(discover(bus.core, rates=RATES), timeout=0.04 if how == "run_timeout" else None)
         if how == "run_timeout":
             with pytest.raises(CallTimeout):
@@ -171,10 +179,12 @@ def test_an_async_timeout_or_cancellation_is_thrown_in_and_the_bus_restored(how:
                 await asyncio.wait_for(call, 0.04)
         else:
             task = asyncio.ensure_future(call)
-            await asyncio.sleep(0.04)
-            task.cancel()
+            loop = asyncio.get_running_loop()
+            # cancelled while the discovery is part-way (at its third write), from the port's thread
+            port.on_write = lambda index: loop.call_soon_threadsafe(task.cancel) if index == 2 else None
             with pytest.raises(asyncio.CancelledError):
                 await task
+            port.on_write = None
         assert port.rate == START_RATE and bus.core.baudrate == START_RATE
         assert len(port.rates_set) >= 2
         assert await bus.run(discover(bus.core, rates=RATES)) == EXPECTED  # the lock was released
@@ -232,7 +242,7 @@ class Interrupting:
 
 def test_ctrl_c_in_the_middle_of_a_discovery_is_thrown_in_and_the_bus_restored() -> None:
     port = FakeBus()
-    bus = Bus(port, listeners=[Interrupting()])
+    bus = Bus(port, clock=port.clock, listeners=[Interrupting()])
     with pytest.raises(KeyboardInterrupt):
         bus.run(discover(bus.core, rates=RATES))
     assert port.rate == START_RATE and bus.core.baudrate == START_RATE
@@ -240,7 +250,7 @@ def test_ctrl_c_in_the_middle_of_a_discovery_is_thrown_in_and_the_bus_restored()
 
     async def main() -> None:
         async_port = FakeBus()
-        async_bus = AsyncBus(async_port, listeners=[Interrupting()])
+        async_bus = AsyncBus(async_port, clock=async_port.clock, listeners=[Interrupting()])
         with pytest.raises(KeyboardInterrupt):
             await async_bus.run(discover(async_bus.core, rates=RATES))
         assert async_port.rate == START_RATE and async_bus.core.baudrate == START_RATE

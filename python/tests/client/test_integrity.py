@@ -6,12 +6,13 @@ reads always whole; errors that say what happened and derive from NurimcError.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
 from nurimc import Bus, ControllerBusy, Group, NoAnswer, NurimcError
+from nurimc.client.clock import VirtualClock
 from nurimc.motor import MotorState
 from nurimc.protocol import SetControl
 from nurimc.sim import FaultConfig, SimBus
@@ -20,14 +21,21 @@ from nurimc.sim.servo import Mode
 from nurimc.transport import SerialTransport
 
 
+def virtual_sim(**options: Any) -> SimBus:
+    """A simulated bus on virtual time (tests.client.simfixtures has the usual set-up)."""
+    return SimBus(clock=VirtualClock(), **options)
+
+
 def open_bus(sim: SimBus, baud: int = 9600, **options: object) -> Bus:
-    return Bus(SerialTransport(sim.open_serial(baudrate=baud), "sim://", latency=0.002), **options)  # type: ignore[arg-type]
+    """A library bus on `sim`, on the sim's clock."""
+    port = sim.open_serial(baudrate=baud)
+    return Bus(SerialTransport(port, "sim://", latency=0.002), clock=sim.virtual, **options)  # type: ignore[arg-type]
 
 
 @pytest.fixture
 def slow_eeprom() -> Iterator[tuple[SimBus, SimController, Bus]]:
     """One controller whose EEPROM writes take 150 ms; the bus with its default busy window."""
-    sim = SimBus(eeprom_time=0.15)
+    sim = virtual_sim(eeprom_time=0.15)
     controller = sim.add_controller(id=1)
     bus = open_bus(sim)
     yield sim, controller, bus
@@ -36,7 +44,7 @@ def slow_eeprom() -> Iterator[tuple[SimBus, SimController, Bus]]:
 
 
 def test_busy_window_defaults_to_the_product_profile() -> None:
-    sim = SimBus()
+    sim = virtual_sim()
     bus = open_bus(sim)
     assert bus.core.window(1) == 0.3  # spec/profiles.json, profile mc
     bus.motor(2, product="blmc-h")
@@ -83,7 +91,7 @@ def test_hold_right_after_release_holds(slow_eeprom: tuple[SimBus, SimController
 
 
 def test_a_motor_released_before_the_program_started_is_enabled_to_move() -> None:
-    sim = SimBus(eeprom_time=0.02)
+    sim = virtual_sim(eeprom_time=0.02)
     controller = sim.add_controller(id=1)
     controller.settings.control = 1  # stored "off" from an earlier session
     controller.servo.release()
@@ -96,14 +104,14 @@ def test_a_motor_released_before_the_program_started_is_enabled_to_move() -> Non
 
 
 def test_no_answer_after_a_settings_write_says_busy_not_wiring() -> None:
-    sim = SimBus(eeprom_time=0.15)
+    sim = virtual_sim(eeprom_time=0.15)
     sim.add_controller(id=1)
     bus = open_bus(sim, busy_window=0.02, retries=1)  # a window shorter than this controller needs
     bus.send(SetControl(1, 0))
     with pytest.raises(ControllerBusy) as err:
         bus.motor(1).read_state()
     assert "busy writing its settings" in str(err.value) and "wires" not in str(err.value)
-    time.sleep(0.15)
+    bus.clock.sleep(0.15)
     with pytest.raises(NoAnswer) as plain:
         bus.motor(7).read_state()  # nothing was written to ID 7: the usual checklist
     assert not isinstance(plain.value, ControllerBusy) and "wires" in str(plain.value)
@@ -117,17 +125,17 @@ def test_hold_after_many_turns_holds_where_the_motor_is(slow_eeprom: tuple[SimBu
     sim, controller, bus = slow_eeprom
     motor = bus.motor(1)
     motor.run(300)
-    deadline = time.monotonic() + 5
-    while true_angle(sim, controller) < 1400 and time.monotonic() < deadline:
-        time.sleep(0.02)
+    deadline = bus.clock.now() + 5
+    while true_angle(sim, controller) < 1400 and bus.clock.now() < deadline:
+        bus.clock.sleep(0.02)
     at_release = true_angle(sim, controller)
     assert at_release >= 1400, "the motor did not turn"
     motor.release()
     motor.hold()
-    time.sleep(0.8)
+    bus.clock.sleep(0.8)
     final = true_angle(sim, controller)
     assert final >= at_release - 5, (at_release, final)  # coasted on while control came back, never back
-    time.sleep(0.3)
+    bus.clock.sleep(0.3)
     assert true_angle(sim, controller) == pytest.approx(final, abs=2.0)  # and it holds there
     assert abs(motor.read_state().speed) < 1.0
 
@@ -142,7 +150,7 @@ def test_late_answers_are_never_returned_as_fresh() -> None:
     """30 % of answers 60 ms late, on a turning motor: each of 200 values (issue 10's figure)
     lies between the true positions before and after its own call, so none answers an
     earlier request."""
-    sim = SimBus(faults=FaultConfig(delay_ms=60, delay_rate=0.3), seed=3)
+    sim = virtual_sim(faults=FaultConfig(delay_ms=60, delay_rate=0.3), seed=3)
     controller = sim.add_controller(id=1, baud=115200)
     controller.settings.resolution = 1000  # 0.09 deg steps
     controller.apply_settings()
@@ -167,7 +175,7 @@ def test_late_answers_are_never_returned_as_fresh() -> None:
 def test_broadcast_reads_are_always_whole() -> None:
     """300 broadcast reads of 8 motors at 1 Mbps (issue 10's figures), 5 % of answers missed."""
     ids = list(range(1, 9))
-    sim = SimBus(faults=FaultConfig(miss_rate=0.05), seed=11)
+    sim = virtual_sim(faults=FaultConfig(miss_rate=0.05), seed=11)
     for i in ids:
         sim.add_controller(id=i, baud=1000000)
     bus = open_bus(sim, 1000000, busy_window=0.03, late_answer=0.02)
@@ -188,7 +196,7 @@ def test_broadcast_reads_are_always_whole() -> None:
 
 
 def test_broadcast_read_gives_a_missing_motor_its_error() -> None:
-    sim = SimBus()
+    sim = virtual_sim()
     for i in (1, 2):
         sim.add_controller(id=i, baud=1000000)
     bus = open_bus(sim, 1000000, busy_window=0.03, late_answer=0.01)
@@ -202,7 +210,7 @@ def test_broadcast_read_gives_a_missing_motor_its_error() -> None:
 
 
 def test_library_errors_derive_from_nurimc_error() -> None:
-    sim = SimBus()
+    sim = virtual_sim()
     bus = open_bus(sim, 9600, busy_window=0.01)
     group = Group(bus, list(range(40)))
     with pytest.raises(NurimcError, match="stagger at most"):

@@ -5,7 +5,6 @@ from __future__ import annotations
 import itertools
 import json
 import threading
-import time
 from collections.abc import Iterator
 
 import pytest
@@ -18,16 +17,7 @@ from nurimc.protocol import FieldRangeError, PositionFeedback, RequestPosition
 from nurimc.settings import SETTINGS
 from nurimc.sim import FaultConfig
 
-from .simfixtures import sim_bus
-
-
-def wait_until(check, timeout: float = 5.0) -> bool:  # type: ignore[no-untyped-def]
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if check():
-            return True
-        time.sleep(0.02)
-    return False
+from .simfixtures import sim_bus, wait_until
 
 
 @pytest.fixture
@@ -41,30 +31,30 @@ def one() -> Iterator:  # type: ignore[type-arg]
 def test_move_to_settles_at_the_target(one) -> None:  # type: ignore[no-untyped-def]
     motor = one.motor(1)
     motor.move_to(90, rpm=120)
-    assert wait_until(lambda: abs(motor.read_state().position - 90) < 0.5)
+    assert wait_until(one, lambda: abs(motor.read_state().position - 90) < 0.5)
     motor.move_to(-45, seconds=0.5)
-    assert wait_until(lambda: abs(motor.read_state().position + 45) < 0.5)
+    assert wait_until(one, lambda: abs(motor.read_state().position + 45) < 0.5)
     assert motor.read_state().direction == "cw"
 
 
 def test_move_by_in_absolute_and_relative_mode(one) -> None:  # type: ignore[no-untyped-def]
     motor = one.motor(1)
     motor.move_by(30, rpm=120)
-    assert wait_until(lambda: abs(motor.read_state().position - 30) < 0.5)
+    assert wait_until(one, lambda: abs(motor.read_state().position - 30) < 0.5)
     motor.set("position-mode", "relative")
     motor.move_by(20, rpm=120)
-    assert wait_until(lambda: abs(motor.read_state().position - 50) < 0.5)
+    assert wait_until(one, lambda: abs(motor.read_state().position - 50) < 0.5)
     motor.move_to(10, rpm=120)  # absolute target even though the device is in relative mode
-    assert wait_until(lambda: abs(motor.read_state().position - 10) < 0.5)
+    assert wait_until(one, lambda: abs(motor.read_state().position - 10) < 0.5)
 
 
 def test_run_release_and_hold(one) -> None:  # type: ignore[no-untyped-def]
     motor = one.motor(1)
     motor.run(-60, ramp_seconds=0.1)
-    assert wait_until(lambda: motor.read_speed() < -50)
+    assert wait_until(one, lambda: motor.read_speed() < -50)
     motor.release()
     assert motor.get("control") == "off"
-    assert wait_until(lambda: abs(motor.read_speed()) < 1)
+    assert wait_until(one, lambda: abs(motor.read_speed()) < 1)
     motor.hold()
     assert motor.get("control") == "on"
     with pytest.raises(FieldRangeError, match="release"):
@@ -75,10 +65,10 @@ def test_position_is_continuous_across_wraps(one) -> None:  # type: ignore[no-un
     motor = one.motor(1)
     motor.run(300, ramp_seconds=0.1)  # 1800 deg/s: a wrap every 0.36 s
     readings = []
-    end = time.monotonic() + 1.2
-    while time.monotonic() < end:
+    end = one.clock.now() + 1.2
+    while one.clock.now() < end:
         readings.append(motor.read_state().position)
-        time.sleep(0.03)
+        one.clock.sleep(0.03)
     motor.release()
     assert readings[-1] > 655.36  # went past the device's wrap...
     assert all(b >= a - 1 for a, b in itertools.pairwise(readings))  # ...without jumping back
@@ -109,7 +99,7 @@ def test_group_commands_and_reads(one) -> None:  # type: ignore[no-untyped-def]
     sim, bus = sim_bus([1, 2, 3], baud=115200, resolution=1000)
     group = Group(bus, [1, 2, 3])
     group.command([m.make_move_to(10.0 * m.id, rpm=200) for m in group.motors])
-    assert wait_until(lambda: all(abs(s.position - 10 * i) < 0.5 for i, s in group.read_states().items()))
+    assert wait_until(bus, lambda: all(abs(s.position - 10 * i) < 0.5 for i, s in group.read_states().items()))
     slot = group.stagger()
     states = group.read_states_broadcast()
     assert sorted(states) == [1, 2, 3] and slot >= 1
@@ -141,8 +131,10 @@ def test_discovery_walks_ids_when_answers_collide() -> None:
 
 def test_duplicate_ids_are_reported_as_corrupted_not_misread() -> None:
     sim, bus = sim_bus([2, 3], resolution=1000)
+    # both away from 0: an all-zero answer is dominant on the wire and can survive a collision whole
+    bus.motor(2).move_to(-70, rpm=300)
     bus.motor(3).move_to(40, rpm=300)
-    time.sleep(0.4)
+    bus.clock.sleep(0.4)
     bus.run(cfg.change_id(bus.core, 3, 4))
     sim.controllers[1].settings.id = 2  # a second controller at ID 2, behind the library's back
     with pytest.raises(CorruptedAnswer, match=r"same ID|collid|noise"):
@@ -180,7 +172,7 @@ def test_factory_reset_needs_confirmation() -> None:
         bus.run(cfg.factory_reset(bus.core, 3))
     bus.motor(3).set("ratio", 5)
     bus.run(cfg.factory_reset(bus.core, 3, confirm=True))
-    time.sleep(0.05)
+    bus.clock.sleep(0.05)
     assert bus.motor(0).get("ratio") == 1.0  # back to defaults, and to ID 0
     bus.close()
     sim.close()

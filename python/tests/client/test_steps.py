@@ -8,16 +8,17 @@ from __future__ import annotations
 import pytest
 
 from nurimc.client.actions import Receive, Send, SetHostBaud, WaitUntil
-from nurimc.client.core import BusCore
+from nurimc.client.core import FENCES, BusCore
 from nurimc.client.timing import MAX_RESPONSE_TIME, Timing
 from nurimc.config import change_baud, change_id
-from nurimc.discovery import WALK_RESPONSE_TIME, Found, Progress, discover
-from nurimc.errors import CallTimeout, ControllerBusy, IdInUse, NoAnswer, SettingNotApplied
+from nurimc.discovery import Found, Progress, RateSkipped, discover
+from nurimc.errors import CallTimeout, ControllerBusy, IdInUse, NoAnswer, RateRefused, SettingNotApplied
 from nurimc.group import read_states_broadcast
 from nurimc.motor import MotorProcedures, MotorState
 from nurimc.protocol import (
     BROADCAST_ID,
     Firmware,
+    Message,
     Ping,
     PositionFeedback,
     RequestFirmware,
@@ -54,7 +55,9 @@ def test_discovery_pings_each_rate_once_confirms_and_returns_to_the_old_rate() -
     assert s.notes == [Progress(9600, 0, 2, None, ())]
     assert s.sent() == BROADCAST_PING
     window = TIMING.answer_deadline(6, 6, 9600, MAX_RESPONSE_TIME)
-    assert s.receive(Ping(5).encode()).until == pytest.approx(100.0 + window)
+    begun = window - TIMING.wire_time(5, 9600)  # silence by then: nobody at this rate
+    assert s.receive(Ping(5).encode()).until == pytest.approx(100.0 + begun)
+    assert s.expect(Receive).until == pytest.approx(100.0 + window)  # an answer began: the whole window
     s.silence()
     assert s.baud() == 115200
     assert s.sent() == BROADCAST_PING
@@ -67,42 +70,63 @@ def test_discovery_pings_each_rate_once_confirms_and_returns_to_the_old_rate() -
     assert core.baudrate == 57600 and core.timing is TIMING
 
 
-def test_discovery_walks_ids_only_where_answers_collide() -> None:
+def test_discovery_walks_ids_only_where_answers_collide_at_the_pace_the_broadcast_measured() -> None:
     core = bus_core(9600)
     s = Stepper(discover(core, rates=[9600]))
     s.baud()
     assert s.sent() == BROADCAST_PING
+    s.clock += 0.0075  # the garble ends 7.5 ms after the broadcast was written
     s.receive(b"\xff\xfe\x00\x07\x13")  # two answers on top of each other
     s.silence()
-    walk_deadline = TIMING.answer_deadline(6, 6, 9600, WALK_RESPONSE_TIME)
+    char = 10 / 9600
+    # every answer began one frame before the last byte; two characters and the latency of slack
+    wait = 0.0075 - 6 * char + 2 * char + TIMING.latency
     found: list[Found] = []
     for device_id in range(255):
         assert s.notes[-1] == Progress(9600, 0, 1, device_id, tuple(found))
-        assert s.sent() == RequestPing(device_id).encode()
+        assert s.sent() == RequestFirmware(device_id).encode()
         receive = s.expect(Receive)
-        assert receive.until == pytest.approx(s.clock + walk_deadline)  # short: the walk's own timing
+        assert receive.until == pytest.approx(s.clock + wait)  # only until an answer would have begun
         if device_id == 7:
-            s.receive(Ping(7).encode())
-            found.append(Found(7, 9600, None))
+            s.receive(Firmware(7, 3).encode())
+            found.append(Found(7, 9600, 3))
         elif device_id == 9:
-            s.receive(broken(Ping(9).encode()))
+            s.receive(broken(Firmware(9, 4).encode()))
             s.silence()
             found.append(Found(9, 9600, None, collision=True))
+        elif device_id == 12:
+            s.silence()  # ID 12 answers late: during the next ID's request, and is found all the same
+        elif device_id == 13:
+            s.receive(Firmware(12, 5).encode())
+            s.silence()
+            found.append(Found(12, 9600, 5))
         else:
             s.silence()
-    assert core.timing is TIMING  # the walk's timing is put back
-    assert s.baud() == 9600
-    assert s.sent() == RequestFirmware(7).encode()
-    s.receive(Firmware(7, 3).encode())
-    assert s.baud() == 9600
+    assert s.baud() == 9600  # only the collision is asked again (the walk's answers named their firmware)
     assert s.sent() == RequestFirmware(9).encode()
-    s.silence()
-    s.sent()
-    s.silence()
-    s.sent()
-    s.silence()  # retried, then reported without a version
+    for _ in range(3):  # retried, then reported without a version
+        s.silence()
+        if type(s.action) is Send:
+            s.sent()
     assert s.baud() == 9600
-    assert s.result() == [Found(7, 9600, 3), Found(9, 9600, None, collision=True)]
+    assert s.result() == [Found(7, 9600, 3), Found(9, 9600, None, collision=True), Found(12, 9600, 5)]
+    assert core.timing is TIMING
+
+
+def test_discovery_skips_a_rate_the_port_refuses_with_one_note_and_goes_on() -> None:
+    core = bus_core(57600)
+    s = Stepper(discover(core, rates=[115200, 9600]))
+    assert s.expect(SetHostBaud) == SetHostBaud(9600)
+    s.fail(RateRefused("the adapter at /dev/ttyUSB0 cannot be set to 9600 bps ([Errno 22] Invalid argument)"))
+    assert core.baudrate == 57600  # the port kept its rate, and so did the bus
+    assert s.notes == [
+        RateSkipped(9600, "the adapter at /dev/ttyUSB0 cannot be set to 9600 bps ([Errno 22] Invalid argument)")
+    ]
+    assert s.baud() == 115200  # the scan goes on
+    assert s.sent() == BROADCAST_PING
+    s.silence()
+    assert s.baud() == 57600
+    assert s.result() == []
 
 
 def play_discovery(s: Stepper[list[Found]], core: BusCore, limit: int | None = None) -> list[type]:
@@ -163,19 +187,6 @@ def test_a_port_that_stays_dead_reports_the_first_failure_and_the_old_rate() -> 
     assert core.baudrate == 57600
 
 
-def test_a_discovery_closed_mid_walk_puts_its_timing_back() -> None:
-    core = bus_core(9600)
-    s = Stepper(discover(core, rates=[9600]))
-    s.baud()
-    s.sent()
-    s.receive(b"\x00\x13")  # garbled: walk
-    s.silence()
-    s.sent()  # pinging ID 0 with the walk's timing
-    assert core.timing is not TIMING
-    s.procedure.close()  # abandoned: no further action, but no wrong state either
-    assert core.timing is TIMING
-
-
 # -- configuration -------------------------------------------------------------------------
 def test_change_id_checks_both_ids_writes_once_and_verifies_after_the_busy_window() -> None:
     core = bus_core(9600, busy_window=0.2)
@@ -185,15 +196,16 @@ def test_change_id_checks_both_ids_writes_once_and_verifies_after_the_busy_windo
     s.silence()
     assert s.sent() == RequestPing(2).encode()
     s.silence()
-    owed = core._pending[2].until
+    assert core.owes(2, Ping)
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
     started = s.clock
     assert s.sent(wire_time=0.001) == SetId(1, 2).encode()
     finished = started + 0.001  # the write returned; the bytes still take their wire time
     busy_end = finished + TIMING.wire_time(len(SetId(1, 2).encode()), 9600) + TIMING.latency + 0.2
-    # the free-ID pings may still be answered late: that is waited out before ID 2 is asked again
-    assert s.receive(b"").until == owed
+    # the free-ID pings may still be answered late: a fence of another kind rules that out first
+    assert s.sent() == RequestFirmware(2).encode()
+    s.receive(Firmware(2, 40).encode())
     assert s.sent() == RequestPing(2).encode()  # verified at the new ID ...
     # ... once the busy window is over
     assert [w.when for w in s.waits if type(w) is WaitUntil] == [pytest.approx(busy_end)]
@@ -210,9 +222,25 @@ def test_change_id_is_refused_when_the_new_id_answers() -> None:
         s.receive(Ping(2).encode())
 
 
+def rate_checked(s: Stepper[int]) -> None:
+    """A baud change first checks that the port can run at the new rate: there and back, nothing sent."""
+    assert s.baud() == 115200
+    assert s.baud() == 9600
+
+
+def test_change_baud_to_a_rate_the_adapter_refuses_sends_nothing() -> None:
+    core = bus_core(9600, busy_window=0.05)
+    s = Stepper(change_baud(core, 1, 250000))
+    assert s.expect(SetHostBaud) == SetHostBaud(250000)
+    with pytest.raises(RateRefused, match=r"ID 1 was not changed \(at 250000 bps it would be out of reach\)"):
+        s.fail(RateRefused("the adapter at /dev/ttyUSB0 cannot be set to 250000 bps"))
+    assert core.baudrate == 9600
+
+
 def test_change_baud_switches_the_host_and_verifies_at_the_new_rate() -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
     assert s.sent() == SetBaud(1, baud_index(115200)).encode()
@@ -226,6 +254,7 @@ def test_change_baud_switches_the_host_and_verifies_at_the_new_rate() -> None:
 def test_change_baud_interrupted_after_the_switch_puts_the_host_back(failure: BaseException) -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
     s.sent()
     s.receive(Ping(1).encode())
     s.sent()
@@ -241,6 +270,7 @@ def test_change_baud_interrupted_after_the_switch_puts_the_host_back(failure: Ba
 def test_change_baud_that_did_not_take_says_where_the_controller_is() -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
     s.sent()
     s.receive(Ping(1).encode())
     s.sent()
@@ -280,42 +310,72 @@ def test_busy_window_holds_motion_after_release_until_the_window_ends() -> None:
     assert m.clock >= enabled_busy and m.done
 
 
-def test_a_late_answer_is_waited_out_and_never_returned_by_the_next_request() -> None:
-    core = bus_core(115200)
-    first = Stepper(core.ask(RequestPosition(1), retries=0))
+def lost_answer(core: BusCore, device_id: int = 1) -> Stepper[Message]:
+    """A position read whose answer did not come in time (it may still come, late)."""
+    first = Stepper(core.ask(RequestPosition(device_id), retries=0))
     first.sent()
     with pytest.raises(NoAnswer):
         first.silence()
-    owed_until = core._pending[1].until
-    assert owed_until == pytest.approx(first.clock + core.late_answer)
+    assert core.owes(device_id, PositionFeedback)
+    return first
 
+
+def test_a_late_answer_is_ruled_out_by_a_fence_and_never_returned_by_the_next_request() -> None:
+    core = bus_core(115200)
+    first = lost_answer(core)
     second = Stepper(core.ask(RequestPosition(1)), clock=first.clock)
-    quiet = second.expect(Receive)  # no request while an answer to the last one may still come
-    assert quiet.until == pytest.approx(owed_until)
-    second.receive(PositionFeedback(1, 0, 111, 0, 0).encode())  # there it is: late, and dropped
+    assert second.sent() == RequestPing(1).encode()  # a fence: its answer is no position
+    second.receive(PositionFeedback(1, 0, 111, 0, 0).encode())  # the late answer comes first: dropped
     assert second.sent() == RequestPosition(1).encode()
-    second.receive(PositionFeedback(1, 0, 222, 0, 0).encode())
+    second.receive(Ping(1).encode() + PositionFeedback(1, 0, 222, 0, 0).encode())  # the fence's, then ours
     assert second.result() == PositionFeedback(1, 0, 222, 0, 0)
-    assert core.stats.quiet_waits == 1 and core.stats.stale_frames == 1 and not core._pending
+    assert core.stats.fences == 1 and core.stats.quiet_waits == 0 and core.stats.stale_frames == 2
+    assert not core._owed
 
 
-def test_a_late_answer_that_never_comes_costs_the_quiet_period_once() -> None:
+def test_a_lost_answer_costs_the_next_read_one_fence_not_a_quiet_period() -> None:
     core = bus_core(115200)
-    first = Stepper(core.ask(RequestPosition(1), retries=0))
-    first.sent()
-    with pytest.raises(NoAnswer):
-        first.silence()
-    owed_until = core._pending[1].until
+    first = lost_answer(core)
     second = Stepper(core.ask(RequestPosition(1)), clock=first.clock)
-    second.receive(b"")
-    assert second.clock == owed_until
+    assert second.sent() == RequestPing(1).encode()
+    # the fence is answered: the controller answers in order, so the lost answer never comes
+    second.receive(Ping(1).encode())
     assert second.sent() == RequestPosition(1).encode()
+    assert second.waits == [] and second.clock - first.clock < 0.001
     second.receive(PositionFeedback(1, 0, 5, 0, 0).encode())
     third = Stepper(core.ask(RequestPosition(1)), clock=second.clock)
-    assert third.expect(Send)  # nothing owed any more: straight to the request
+    assert third.expect(Send).data == RequestPosition(1).encode()  # nothing owed any more: no fence
 
 
-def test_an_answer_to_an_earlier_attempt_answers_the_call_and_the_next_call_waits_for_the_other() -> None:
+def test_unanswered_fences_fall_back_to_waiting_the_late_answer_out() -> None:
+    core = bus_core(115200)
+    first = lost_answer(core)
+    owed_until = core._owed[1][0].until
+    assert owed_until == pytest.approx(first.clock + core.late_answer)
+    second = Stepper(core.ask(RequestPosition(1)), clock=first.clock)
+    for _ in range(FENCES):
+        assert second.sent() == RequestPing(1).encode()
+        second.receive(b"")
+    assert second.expect(Receive).until == pytest.approx(owed_until)  # the quiet period, once
+    second.receive(b"")
+    assert second.sent() == RequestPosition(1).encode() and core.stats.quiet_waits == 1
+
+
+def test_a_fence_answered_by_an_older_fence_is_not_taken_for_its_own() -> None:
+    core = bus_core(115200)
+    first = lost_answer(core)
+    second = Stepper(core.ask(RequestPosition(1), retries=0), clock=first.clock)
+    second.sent()  # fence 1: no answer in time
+    second.receive(b"")
+    second.sent()  # fence 2
+    # fence 1's answer, late: it proves the position answer (asked before fence 1) is settled
+    second.receive(Ping(1).encode())
+    assert second.sent() == RequestPosition(1).encode()
+    # owed now: fence 2's answer (it may still come) and this request's own, nothing older
+    assert [o.kind for o in core._owed[1]] == [Ping, PositionFeedback]
+
+
+def test_an_answer_to_an_earlier_attempt_answers_the_call_and_the_next_call_fences_the_other() -> None:
     core = bus_core(115200)
     s = Stepper(core.ask(RequestPosition(1), retries=1))
     s.sent()
@@ -324,24 +384,37 @@ def test_an_answer_to_an_earlier_attempt_answers_the_call_and_the_next_call_wait
     s.receive(PositionFeedback(1, 0, 7, 0, 0).encode())  # attempt 1's answer, late, or attempt 2's
     assert s.result() == PositionFeedback(1, 0, 7, 0, 0)
     nxt = Stepper(core.ask(RequestPosition(1)), clock=s.clock)
-    assert type(nxt.action) is Receive  # one answer may still be on its way: wait for it first
+    assert nxt.sent() == RequestPing(1).encode()  # one answer may still be on its way: fenced first
 
 
-def test_broadcast_read_asks_a_missing_motor_again_and_takes_its_late_answer() -> None:
+def test_a_duplicated_answer_is_given_time_to_show_before_the_same_request() -> None:
+    core = bus_core(9600)
+    s = Stepper(core.ask(RequestPosition(1)))
+    s.sent()
+    s.receive(PositionFeedback(1, 0, 7, 0, 0).encode())
+    taken = s.clock
+    nxt = Stepper(core.ask(RequestPosition(1)), clock=taken)
+    assert [w.when for w in nxt.waits if type(w) is WaitUntil] == [pytest.approx(taken + 2 * TIMING.wire_time(1, 9600))]
+    other = Stepper(core.ask(RequestPing(1)), clock=taken)  # another request: no copy to fear
+    assert other.waits == []
+
+
+def test_broadcast_read_asks_a_missing_motor_again_behind_a_fence() -> None:
     core = bus_core(1_000_000, busy_window=0.03)
     motors = [MotorProcedures(core, 1), MotorProcedures(core, 2), MotorProcedures(core, 3)]
     s = Stepper(read_states_broadcast(motors, slot=2))
     assert s.sent() == BROADCAST_POSITION
     s.receive(PositionFeedback(1, 0, 100, 0, 0).encode())
+    # the last in the stagger has answered: ID 2's answer is late, no need to wait the window out
     s.receive(PositionFeedback(3, 0, 300, 0, 0).encode())
-    s.receive(b"")  # the window ends without ID 2
-    assert s.expect(Send).data == RequestPosition(2).encode()  # asked again at once: no quiet wait
-    s.sent()
-    s.receive(PositionFeedback(2, 0, 200, 0, 0).encode())  # the broadcast's late answer, or the re-ask's
+    assert s.sent() == RequestPing(2).encode()  # a fence: ID 2 may still answer the broadcast
+    s.receive(PositionFeedback(2, 0, 150, 0, 0).encode())  # there it is, late: dropped
+    assert s.sent() == RequestPosition(2).encode()
+    s.receive(Ping(2).encode() + PositionFeedback(2, 0, 200, 0, 0).encode())  # the fence's, then ours
     states = s.result()
     assert list(states) == [1, 2, 3]
     assert [s.device_position for s in states.values() if isinstance(s, MotorState)] == [1.0, 2.0, 3.0]
-    assert type(Stepper(core.ask(RequestPosition(2))).action) is Receive  # the other answer is still owed
+    assert not core._owed  # nothing left owed: the next broadcast asks everyone again
 
 
 def test_broadcast_read_is_whole_even_when_a_motor_never_answers() -> None:
@@ -350,7 +423,9 @@ def test_broadcast_read_is_whole_even_when_a_motor_never_answers() -> None:
     s = Stepper(read_states_broadcast(motors, slot=2))
     s.sent()
     s.receive(PositionFeedback(2, 0, 200, 0, 0).encode())
-    s.silence()
+    for _ in range(FENCES):
+        assert s.sent() == RequestPing(1).encode()
+        s.silence()
     for _ in range(3):
         assert s.sent() == RequestPosition(1).encode()
         s.silence()

@@ -33,7 +33,9 @@ def test_every_rate_through_a_pseudo_terminal() -> None:
         sim.close()
 
 
+@pytest.mark.realtime
 def test_motion_over_the_pseudo_terminal() -> None:
+    """End to end on the real clock: a pseudo-terminal served by the simulator's thread."""
     sim = SimBus()
     sim.add_controller(id=2, baud=115200)
     endpoint = sim.serve_pty()

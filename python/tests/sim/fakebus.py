@@ -4,24 +4,17 @@ from __future__ import annotations
 
 from typing import Any
 
+from nurimc.client.clock import VirtualClock
 from nurimc.sim import SimBus
 
 TURNAROUND = 0.005  # s the fake clock moves after each write: time for an answer to arrive
-
-
-class FakeClock:
-    def __init__(self, start: float = 100.0) -> None:
-        self.t = start
-
-    def __call__(self) -> float:
-        return self.t
 
 
 class FakePort:
     """Enough of a serial port for wirehelp: every write moves the clock by TURNAROUND, so the
     answer is there when read (reads never wait)."""
 
-    def __init__(self, bus: SimBus, clock: FakeClock, baud: int = 9600) -> None:
+    def __init__(self, bus: SimBus, clock: VirtualClock, baud: int = 9600) -> None:
         self.bus = bus
         self.clock = clock
         self.inner = bus.open_serial(baudrate=baud, timeout=0)
@@ -40,8 +33,7 @@ class FakePort:
 
     def sleep(self, seconds: float) -> None:
         """Let `seconds` pass on the bus (physics stepped)."""
-        self.clock.t += seconds
-        self.bus.advance()
+        self.clock.advance(seconds)  # the bus follows its clock: physics stepped
 
     @property
     def baudrate(self) -> int:
@@ -56,7 +48,7 @@ class FakePort:
 
 
 def fake_bus(controllers: int | list[int] = 1, product: str = "mc", **bus_args: Any) -> tuple[SimBus, FakePort]:
-    clock = FakeClock()
+    clock = VirtualClock()
     bus_args.setdefault("eeprom_time", 0.0)
     bus = SimBus(clock=clock, **bus_args)
     ids = list(range(controllers)) if isinstance(controllers, int) else controllers

@@ -4,18 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from nurimc.client.clock import VirtualClock
 from nurimc.sim import SimBus
 
 from .conftest import Pty
 from .wirehelp import ask, command, frame, parse_answer, silent, u16
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
 
 
 def test_duplicate_ids_garble_answers(make_pty: Callable[..., Pty]) -> None:
@@ -50,7 +43,7 @@ def test_broadcast_commands_reach_every_controller(make_pty: Callable[..., Pty])
 
 
 def test_broadcast_request_collides_unless_staggered() -> None:
-    clock = FakeClock()
+    clock = VirtualClock()
     bus = SimBus(clock=clock, eeprom_time=0.0)
     for i in range(3):
         bus.add_controller(i)
@@ -69,7 +62,7 @@ def test_broadcast_request_collides_unless_staggered() -> None:
 
 
 def test_wire_timing_paces_each_byte() -> None:
-    clock = FakeClock()
+    clock = VirtualClock()
     bus = SimBus(clock=clock, wire_timing=True)
     bus.add_controller(0, 9600)
     port = bus.open_serial(baudrate=9600, timeout=0)
@@ -84,7 +77,7 @@ def test_wire_timing_paces_each_byte() -> None:
 
 
 def test_without_wire_timing_only_the_response_time_counts() -> None:
-    clock = FakeClock()
+    clock = VirtualClock()
     bus = SimBus(clock=clock)
     c = bus.add_controller(0, 9600)
     c.settings.response_time = 50  # 5 ms

@@ -6,21 +6,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nurimc.client.clock import VirtualClock
 from nurimc.sim import FaultConfig, SimBus
 
 from .wirehelp import frame, parse_answer
 
 
-class FakeClock:
-    def __init__(self) -> None:
-        self.t = 0.0
-
-    def __call__(self) -> float:
-        return self.t
-
-
 def traffic(faults: FaultConfig, seed: int) -> bytes:
-    clock = FakeClock()
+    clock = VirtualClock(0.0)
     bus = SimBus(clock=clock, faults=faults, seed=seed)
     for i in range(3):
         bus.add_controller(i)
@@ -56,7 +49,7 @@ def test_faults_are_reproducible_by_seed() -> None:
     ids=["miss", "drop", "echo", "flip", "noise"],
 )
 def test_each_fault_has_its_effect(faults: FaultConfig, effect: object) -> None:
-    clock = FakeClock()
+    clock = VirtualClock(0.0)
     bus = SimBus(clock=clock, faults=faults)
     bus.add_controller(0)
     port = bus.open_serial(timeout=0)
@@ -67,7 +60,7 @@ def test_each_fault_has_its_effect(faults: FaultConfig, effect: object) -> None:
 
 
 def test_flipped_answer_bytes_reach_the_host_corrupted() -> None:
-    clock = FakeClock()
+    clock = VirtualClock(0.0)
     bus = SimBus(clock=clock, faults=FaultConfig(flip_rate=0.3), seed=5)
     bus.add_controller(0)
     port = bus.open_serial(timeout=0)
@@ -83,7 +76,7 @@ def test_flipped_answer_bytes_reach_the_host_corrupted() -> None:
 
 
 def test_delay_fault_delays_answers() -> None:
-    clock = FakeClock()
+    clock = VirtualClock(0.0)
     bus = SimBus(clock=clock, faults=FaultConfig(delay_ms=30))
     bus.add_controller(0)
     port = bus.open_serial(timeout=0)
@@ -102,7 +95,7 @@ def test_fault_config_rejects_nonsense() -> None:
 @settings(max_examples=150, deadline=None)
 @given(chunks=st.lists(st.binary(max_size=80), max_size=8), baud=st.sampled_from([9600, 115200, 300]))
 def test_fuzzed_host_bytes_never_crash_or_wedge(chunks: list[bytes], baud: int) -> None:
-    clock = FakeClock()
+    clock = VirtualClock(0.0)
     bus = SimBus(clock=clock, eeprom_time=0.05)
     bus.add_controller(0, 9600)
     bus.add_controller(1, 115200, "blmc-h")

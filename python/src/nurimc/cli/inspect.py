@@ -13,7 +13,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ..client.sync import Bus
 from ..discovery import Progress as ScanProgress
-from ..discovery import discover
+from ..discovery import RateSkipped, discover
 from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
 from ..journal import RestoreJournal, incomplete_message
@@ -21,6 +21,7 @@ from ..motor import MotorState
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
 from .common import STOP, Number, check_baud, emit, err, fail, one_id, open_bus, options, parse_ids, table
+from .common import note as tell_note
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
 COUNT = Number("--count", 0, 1_000_000, whole=True)
@@ -56,6 +57,8 @@ def scan(
             if isinstance(event, ScanProgress):
                 where = f"{event.rate} bps" + (f", ID {event.walking_id}" if event.walking_id is not None else "")
                 bar.update(task, completed=event.rate_index, description=f"{where}: {len(event.found)} found")
+            elif isinstance(event, RateSkipped):  # the adapter cannot do this rate: say so once, go on
+                tell_note(f"{event.reason}; {event.rate} bps skipped")
 
         found = bus.run(discover(bus.core, rate_list, id_list), on_note=show)
         guesses = {}

@@ -9,10 +9,12 @@ from pathlib import Path
 from typing import TypeVar
 
 import typer
+from rich.progress import Progress, TextColumn, TimeElapsedColumn
 
 from .. import backup as backup_file
 from .. import config
 from ..client.sync import Bus
+from ..discovery import Progress as ScanProgress
 from ..discovery import discover
 from ..errors import InputError
 from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
@@ -110,7 +112,16 @@ def _shown(s: Setting, value: object) -> str:
 def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
     if o.ids:
         return [bus.motor(i, o.product) for i in o.ids]
-    found = bus.run(discover(bus.core, [o.baud]))
+    columns = (TextColumn("{task.description}"), TimeElapsedColumn())
+    with Progress(*columns, console=err, disable=o.json, transient=True) as bar:  # discovery takes seconds: live
+        task = bar.add_task(f"looking for controllers at {o.baud} bps", total=None)
+
+        def show(event: object) -> None:
+            if isinstance(event, ScanProgress):
+                at = f", ID {event.walking_id}" if event.walking_id is not None else ""
+                bar.update(task, description=f"{o.baud} bps{at}: {len(event.found)} found")
+
+        found = bus.run(discover(bus.core, [o.baud]), on_note=show)
     if not found:
         fail(f"no controller answers at {o.baud} bps; give --baud or --id", EXIT_DEVICE)
     return [bus.motor(f.id, o.product) for f in found]

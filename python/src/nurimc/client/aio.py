@@ -8,19 +8,18 @@ driver keeps the same contract (docs/drivers.md).
 from __future__ import annotations
 
 import asyncio
-import time
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from ..errors import CallTimeout
 from ..motor import AsyncMotor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Action, Procedure, Receive, Wait, WaitUntil
+from .actions import Procedure
+from .clock import REAL_CLOCK, Clock
 from .core import BusCore
 from .log import FrameRecorder
-from .perform import Performer
-from .sync import Listeners, make_core
+from .options import Listeners, make_core
+from .perform import Performer, ReadFor, steps
 from .timing import Timing
 
 T = TypeVar("T")
@@ -34,57 +33,40 @@ async def drive_async(
     listeners: Sequence[FrameRecorder] = (),
     on_note: Callable[[Any], None] | None = None,
     timeout: float | None = None,
+    clock: Clock | None = None,
 ) -> T:
     """Carry out a procedure's actions without blocking the loop (docs/drivers.md).
 
-    A failing action or a cancellation (including asyncio.timeout / wait_for on the whole
-    call) is thrown into the procedure, whose cleanup then still runs on the bus; the
-    cancellation is raised again once the procedure has finished. `timeout`: as the sync
-    driver, CallTimeout is thrown in at the first blocking action after that many seconds."""
-    performer = Performer(transport, listeners, on_note)
-    call_deadline = None if timeout is None else time.monotonic() + timeout
+    The trampoline (`perform.steps`) is the sync driver's; this one awaits what blocks: port
+    reads in a worker thread (pyserial has no async API), sleeps on `clock`. A cancellation
+    (asyncio.timeout / wait_for on the whole call) is thrown into the procedure, whose cleanup
+    still runs on the bus; the cancellation is raised again once the procedure has finished."""
+    stepper = steps(procedure, Performer(transport, listeners, on_note, clock), timeout)
     result: Any = None
     error: BaseException | None = None
-    try:
-        while True:
-            try:
-                action: Action = procedure.send(result) if error is None else procedure.throw(error)
-            except StopIteration as stop:
-                return stop.value  # type: ignore[no-any-return]
-            result, error = None, None
-            try:
-                blocking = type(action) in (Receive, Wait, WaitUntil)
-                if blocking and call_deadline is not None and time.monotonic() >= call_deadline:
-                    call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
-                    raise CallTimeout(f"the bus call took longer than {timeout:g} s and was abandoned")
-                result = await _perform(performer, transport, action, call_deadline)
-            except BaseException as err:  # every failure goes to the procedure
-                error = err
-    finally:
-        procedure.close()
-
-
-async def _perform(performer: Performer, transport: Transport, action: Action, call_deadline: float | None) -> Any:
-    if type(action) is Receive:
-        wait = performer.read_timeout(action.until if call_deadline is None else min(action.until, call_deadline))
-        if wait is None:
-            return b""
-        read = asyncio.ensure_future(asyncio.to_thread(transport.read, action.max_bytes, wait))
+    while True:
         try:
-            return performer.received(await asyncio.shield(read))
-        except asyncio.CancelledError:
-            # the read goes on in its thread: let it end before anything else uses the port
-            await asyncio.wait([read])
-            raise
-    if type(action) is Wait:
-        seconds = action.seconds if call_deadline is None else min(action.seconds, call_deadline - time.monotonic())
-        await asyncio.sleep(max(0.0, seconds))
-        return None
-    if type(action) is WaitUntil:
-        when = action.when if call_deadline is None else min(action.when, call_deadline)
-        await asyncio.sleep(max(0.0, when - time.monotonic()))
-        return time.monotonic()
-    return performer.perform(action)
+            block = stepper.send(result) if error is None else stepper.throw(error)
+        except StopIteration as stop:
+            return stop.value  # type: ignore[no-any-return]
+        result, error = None, None
+        try:
+            if type(block) is ReadFor:
+                result = await _read(transport, block)
+            else:
+                await (clock or REAL_CLOCK).sleep_async(block.seconds)
+        except BaseException as err:  # thrown into the procedure at the action that failed
+            error = err
+
+
+async def _read(transport: Transport, block: ReadFor) -> bytes:
+    read = asyncio.ensure_future(asyncio.to_thread(transport.read, block.max_bytes, block.seconds))
+    try:
+        return await asyncio.shield(read)
+    except asyncio.CancelledError:
+        # the read goes on in its thread: let it end before anything else uses the port
+        await asyncio.wait([read])
+        raise
 
 
 class AsyncBus:
@@ -101,9 +83,11 @@ class AsyncBus:
         log_path: str | None = None,
         tracer: FrameRecorder | None = None,
         listeners: Sequence[FrameRecorder] = (),
+        clock: Clock | None = None,
         **options: Any,
     ) -> None:
         self.transport = transport
+        self.clock: Clock = clock or REAL_CLOCK
         self.core: BusCore = make_core(transport, retries, timing, options)
         self._lock = asyncio.Lock()
         self._listeners = Listeners(log_path, tracer, listeners)
@@ -141,7 +125,7 @@ class AsyncBus:
         task (asyncio.timeout, wait_for) throws CancelledError into the procedure, whose
         cleanup runs before the cancellation goes on (docs/drivers.md)."""
         async with self._lock:
-            return await drive_async(procedure, self.transport, self._listeners.items, on_note, timeout)
+            return await drive_async(procedure, self.transport, self._listeners.items, on_note, timeout, self.clock)
 
     async def request(self, request: Request, retries: int | None = None) -> Message:
         return await self.run(self.core.ask(request, retries))

@@ -10,13 +10,16 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, UnexpectedAnswer
+from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, RateRefused, UnexpectedAnswer
 from ..protocol import (
     BROADCAST_ID,
     Command,
     FactoryReset,
     Message,
+    Ping,
     Request,
+    RequestFirmware,
+    RequestPing,
     SetControl,
     SetId,
     StreamParser,
@@ -43,17 +46,24 @@ class BusStats:
     dropped_bytes: int = 0  # noise and broken frames
     busy_waits: int = 0  # frames held back until a controller's EEPROM busy window ended
     quiet_waits: int = 0  # requests held back until a late answer came or could no longer come
+    fences: int = 0  # requests of another kind sent first, to rule out a late answer (Stale answers)
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
 
 
 @dataclass
-class Pending:
-    """Answers still owed by one ID: `count` of them, none expected after `until` (host clock)."""
+class Owed:
+    """An answer an ID may still send: of class `kind`, to a request sent in order `order`; none
+    is expected after `until` (host clock)."""
 
-    count: int
+    kind: type[Message]
     until: float
+    order: int
+
+
+#: fences tried before a request falls back to waiting out the answers its ID owes
+FENCES = 2
 
 
 @dataclass
@@ -79,7 +89,15 @@ class BusCore:
     _busy_until: dict[int, float] = field(default_factory=dict)
     _busy_all_until: float = 0.0
     _waits_pending: float = 0.0  # the latest busy time not yet waited out (0: nothing to wait for)
-    _pending: dict[int, Pending] = field(default_factory=dict)
+    #: answers each ID may still send, in the order their requests were sent (Stale answers)
+    _owed: dict[int, list[Owed]] = field(default_factory=dict)
+    _sent_count: int = 0
+    #: per ID: (answer class, host time) of the last answer taken, for the duplicate guard
+    #: per ID: the last answer seen from it and when (host clock), for the duplicate rule
+    _last_seen: dict[int, tuple[Message, float]] = field(default_factory=dict)
+    _now: float = 0.0  # host time the last bytes were received
+    #: seconds from the last broadcast request's write call to the last byte heard after it (None: silence)
+    broadcast_span: float | None = None
 
     # -- busy windows ------------------------------------------------------------------------
     def window(self, device_id: int) -> float:
@@ -147,48 +165,127 @@ class BusCore:
         until = self.busy_until(device_id)
         return bool(until) and sent_at < until + self.window(device_id)
 
-    # -- pending (possibly late) answers ------------------------------------------------------
-    def _owe(self, device_id: int, until: float) -> None:
-        pending = self._pending.get(device_id)
-        if pending is None:
-            self._pending[device_id] = Pending(1, until)
-        else:
-            pending.count += 1
-            pending.until = max(pending.until, until)
+    # -- owed (possibly late) answers: docs/protocol.md, Stale answers -------------------------
+    def _owe(self, device_id: int, kind: type[Message], until: float) -> Owed:
+        self._sent_count += 1
+        owed = Owed(kind, until, self._sent_count)
+        self._owed.setdefault(device_id, []).append(owed)
+        return owed
+
+    def forget_expired(self, now: float) -> None:
+        for device_id in list(self._owed):
+            left = [o for o in self._owed[device_id] if o.until > now]
+            if left:
+                self._owed[device_id] = left
+            else:
+                del self._owed[device_id]
+
+    def owes(self, device_id: int, kind: type[Message]) -> bool:
+        """May this ID still send an answer of this class to an earlier request?"""
+        return any(o.kind is kind for o in self._owed.get(device_id, ()))
+
+    def _resolve(self, message: Message) -> bool:
+        """An answer came: it answers the earliest request still owed an answer of its class (or
+        a later one), and a controller answers in order, so everything owed before that request
+        has come or never will. True if the ID owed such an answer."""
+        owed = self._owed.get(message.id)
+        if not owed:
+            return False
+        for index, entry in enumerate(owed):
+            if entry.kind is type(message):
+                del owed[: index + 1]
+                if not owed:
+                    del self._owed[message.id]
+                return True
+        return False
 
     def _settle_frame(self, message: Message) -> bool:
-        """Count a frame as stale; True if it was an answer some ID still owed."""
+        """Count a frame as stale; True if it was an answer some ID still owed (or a copy of the
+        last one seen from that ID: a duplicate answers nothing, so it resolves nothing)."""
         self.stats.stale_frames += 1
-        pending = self._pending.get(message.id)
-        if pending is None or isinstance(message, Request):
+        if isinstance(message, Request):
             return False
-        pending.count -= 1
-        if pending.count <= 0:
-            del self._pending[message.id]
-        return True
+        last = self._last_seen.get(message.id)
+        self._last_seen[message.id] = (message, self._now)
+        if last is not None and last[0] == message:
+            return True
+        return self._resolve(message)
 
-    def _quiet(self, ids: Iterable[int]) -> Procedure[None]:
-        """Before asking these IDs: listen until the answers they still owe came or cannot come."""
-        if not self._pending:
+    def _take(self, message: Message) -> None:
+        """`message` is taken as the answer to a request of this call."""
+        self._resolve(message)
+        self._last_seen[message.id] = (message, self._now)
+
+    def _duplicate_gap(self, ids: Iterable[int], kind: type[Message]) -> Procedure[None]:
+        """A copy of the last answer (a repeating adapter or line) follows it back to back: before
+        asking the same ID the same thing again, let the copy's first byte arrive, so the discard
+        before the request takes it (what is left of it can no longer form a frame)."""
+        taken = [
+            t for i in ids if (last := self._last_seen.get(i)) is not None and type(last[0]) is kind for t in last[1:]
+        ]
+        if not taken:
             return
-        waiting = [i for i in ids if i in self._pending]
-        if not waiting:
+        gap = max(taken) + 2 * self.timing.wire_time(1, self.baudrate)
+        now = yield Now()
+        if now < gap:
+            yield WaitUntil(gap)
+
+    def _fence(self, device_id: int, kind: type[Message]) -> Procedure[None]:
+        """Before asking an ID for `kind` while it may still send a late `kind` answer: ask it
+        something whose answer is of another class. Its answer proves (answers come in order)
+        that the late one came or never will; if no fence is answered, wait the owed answers out."""
+        now = yield Now()
+        self.forget_expired(now)
+        if not self.owes(device_id, kind):
+            return
+        fence_cls = RequestFirmware if kind is Ping else RequestPing
+        answer_cls = answer_class(fence_cls)
+        frame = fence_cls(device_id).encode()
+        deadline = self.timing.answer_deadline(
+            len(frame), answer_cls.SPEC.size + 4, self.baudrate, self.response_times.get(device_id)
+        )
+        for _ in range(FENCES):
+            self.stats.fences += 1
+            yield from self._wait_until_free([device_id])
+            yield from self._discard()
+            sent: Sent = yield Send(frame)
+            self._owe(device_id, answer_cls, sent.finished + deadline + self.late_answer)
+            parser = StreamParser()
+            while self.owes(device_id, kind):
+                # no more than the fence's answer: a read returns as soon as that much has come
+                data = yield Receive(max(1, answer_cls.SPEC.size + 4 - parser.pending), sent.finished + deadline)
+                if data:
+                    self._now = yield Now()
+                for message in parser.feed(data) if data else parser.finish():
+                    if message.id == device_id and isinstance(message, Request):
+                        self.stats.echo_frames += 1
+                    else:
+                        self._settle_frame(message)
+                if not data:
+                    break
+            self.stats.dropped_bytes += parser.stats.dropped_bytes
+            if not self.owes(device_id, kind):
+                return
+        yield from self._quiet([device_id], kind)
+
+    def _quiet(self, ids: Iterable[int], kind: type[Message] | None = None) -> Procedure[None]:
+        """Listen until the answers these IDs still owe (of `kind`, or any) came or cannot come."""
+        if not self._owed:
             return
         now = yield Now()
         parser = StreamParser()
         counted = False
         while True:
-            for i in waiting:
-                pending = self._pending.get(i)
-                if pending is not None and pending.until <= now:
-                    del self._pending[i]
-            waiting = [i for i in waiting if i in self._pending]
+            self.forget_expired(now)
+            waiting = [o.until for i in ids for o in self._owed.get(i, ()) if kind is None or o.kind is kind]
             if not waiting:
                 break
             if not counted:
                 self.stats.quiet_waits += 1
                 counted = True
-            data = yield Receive(64, max(self._pending[i].until for i in waiting))
+            data = yield Receive(64, max(waiting))
+            if data:
+                self._now = yield Now()
             for message in parser.feed(data) if data else parser.finish():
                 self._settle_frame(message)
             now = yield Now()
@@ -198,6 +295,7 @@ class BusCore:
         data = yield Discard()
         if not data:
             return
+        self._now = yield Now()
         parser = StreamParser()
         for message in [*parser.feed(data), *parser.finish()]:
             if isinstance(message, Request):
@@ -210,8 +308,8 @@ class BusCore:
     def ask(self, request: Request, retries: int | None = None, *, own_pending: bool = False) -> Procedure[Message]:
         """Send a request and return its answer; retried, since reading twice is harmless.
 
-        An answer to an earlier attempt of this call is an answer to this call; answers owed
-        by earlier calls are waited out first (docs/protocol.md, Stale answers).
+        An answer to an earlier attempt of this call is an answer to this call; a late answer
+        owed to an earlier call is ruled out first by a fence (docs/protocol.md, Stale answers).
         `own_pending`: answers the ID still owes belong to this call too (a broadcast read
         asking its missing motors again)."""
         attempts = 1 + (self.retries if retries is None else retries)
@@ -222,7 +320,8 @@ class BusCore:
         response_time = self.response_times.get(rid)
         deadline = self.timing.answer_deadline(len(frame), answer_len, self.baudrate, response_time)
         if not own_pending:
-            yield from self._quiet([rid])
+            yield from self._fence(rid, cls)
+        yield from self._duplicate_gap([rid], cls)
         failure: Exception | None = None
         first_sent: float | None = None
         for attempt in range(1, attempts + 1):
@@ -234,16 +333,18 @@ class BusCore:
             sent: Sent = yield Send(frame)
             first_sent = sent.started if first_sent is None else first_sent
             self.stats.requests += 1
+            self._owe(rid, cls, sent.finished + deadline + self.late_answer)
             parser = StreamParser()
             others: list[Message] = []
             while True:
                 data = yield Receive(max(1, answer_len - parser.pending), sent.finished + deadline)
+                if data:
+                    self._now = yield Now()
                 frames = parser.feed(data) if data else parser.finish()
                 for message in frames:
                     if type(message) is cls and message.id == rid:
-                        owed = self._pending.get(rid)
-                        if owed is not None:  # this call still has an answer out: wait for it later
-                            owed.until = max(owed.until, sent.finished + deadline + self.late_answer)
+                        # the earliest attempt's answer, or a later one's: what is still owed stays owed
+                        self._take(message)
                         self.stats.answers += 1
                         self.stats.dropped_bytes += parser.stats.dropped_bytes
                         return message
@@ -254,7 +355,6 @@ class BusCore:
                 if not data:
                     break
             self.stats.dropped_bytes += parser.stats.dropped_bytes
-            self._owe(rid, sent.finished + deadline + self.late_answer)
             failure = self._failure(request, attempt, parser, others, first_sent)
         self.stats.no_answer += 1
         assert failure is not None
@@ -297,6 +397,8 @@ class BusCore:
         window: float,
         expect: int | None = None,
         ids: Sequence[int] | None = None,
+        ordered: bool = False,
+        start_within: float | None = None,
     ) -> Procedure[tuple[list[Message], int]]:
         """Send a request to ID 0xFF and collect every answer within `window` seconds
         (or until `expect` answers from distinct IDs, or one from each of `ids`, have come).
@@ -304,32 +406,88 @@ class BusCore:
         Outside the document's §17 (which gives requests IDs 0-254 only), but controllers answer
         it each after its own response time: answers collide unless those are staggered.
         With `ids`, only their answers count and each missing one is left owed, for a
-        follow-up ask(..., own_pending=True). Returns (answers, bytes that formed no frame).
+        follow-up ask(..., own_pending=True). `ordered`: the IDs answer in the order given
+        (staggered response times), so once the last one has answered, an earlier one that has
+        not is late and the window need not run out. Returns (answers, bytes that formed no frame).
         """
         cls = answer_class(request_cls)
+        wanted: set[int] | None = None
         if ids is not None:
+            self.forget_expired((yield Now()))
+            # an ID that may still send a late answer of this class cannot be told from its fresh
+            # one here: its answer only settles what it owes, and it is asked again on its own
+            wanted = {i for i in ids if not self.owes(i, cls)}
             expect = len(set(ids))
-            yield from self._quiet(ids)
+        yield from self._duplicate_gap(self._last_seen if ids is None else ids, cls)
         yield from self._wait_until_free([BROADCAST_ID])
         yield from self._discard()
         sent: Sent = yield Send(build_frame(BROADCAST_ID, request_cls.SPEC.mode, b""))
-        parser, answers, heard = StreamParser(), list[Message](), set[int]()
-        wanted = None if ids is None else set(ids)
+        if ids is not None:
+            for device_id in set(ids):
+                self._owe(device_id, cls, sent.finished + window + self.late_answer)
+        parser, answers, heard, settled = StreamParser(), list[Message](), set[int](), set[int]()
+        self.broadcast_span = None
+        until = sent.finished + (window if start_within is None else min(window, start_within))
         while True:
-            data = yield Receive(cls.SPEC.size + 4, sent.finished + window)
+            data = yield Receive(cls.SPEC.size + 4, until)
+            if data:
+                self._now = yield Now()
+                self.broadcast_span = self._now - sent.started  # from before the write: never short
+                until = sent.finished + window
             for message in parser.feed(data) if data else parser.finish():
                 if type(message) is cls and (wanted is None or message.id in wanted) and message.id not in heard:
+                    self._take(message)
                     answers.append(message)
                     heard.add(message.id)
-                elif not isinstance(message, Request):
-                    self._settle_frame(message)
-            if not data or (expect is not None and len(heard) >= expect):
+                elif not isinstance(message, Request) and self._settle_frame(message) and message.id in (ids or ()):
+                    settled.add(message.id)
+            if not data or (expect is not None and len(heard | settled) >= expect):
                 break
-        if wanted is not None:
-            for missing in wanted - heard:
-                self._owe(missing, sent.finished + window + self.late_answer)
+            if ordered and ids and ids[-1] in heard | settled:
+                break  # the last to answer has: any missing answer is late (left owed)
         self.stats.dropped_bytes += parser.stats.dropped_bytes
         return answers, parser.stats.dropped_bytes
+
+    def probe(self, request: Request, start_within: float) -> Procedure[tuple[list[Message], bool]]:
+        """Send `request` and listen only until an answer would have begun (`start_within`
+        seconds after the write returned), or, once bytes have begun, until a whole answer could
+        have come. For walking IDs at the wire's pace (discovery). Returns every answer of the
+        request's class heard, from any ID (a late answer to an earlier probe names its ID), and
+        whether bytes came that formed no frame (answers on top of each other)."""
+        cls = answer_class(type(request))
+        size = cls.SPEC.size + 4
+        char = self.timing.wire_time(1, self.baudrate)
+        parser, got = StreamParser(), list[Message]()
+        held = yield Discard()  # what came since the last probe: late answers still count
+        if held:
+            early = StreamParser()
+            for message in [*early.feed(held), *early.finish()]:
+                if type(message) is cls:
+                    self._resolve(message)
+                    got.append(message)
+        sent: Sent = yield Send(request.encode())
+        self.stats.requests += 1
+        until = sent.finished + start_within
+        self._owe(request.id, cls, until + self.timing.wire_time(size, self.baudrate) + self.late_answer)
+        began = False
+        while True:
+            data = yield Receive(max(1, size - parser.pending), until)
+            if data and not began:
+                began = True
+                self._now = yield Now()
+                until = max(until, self._now + (size + 1) * char + self.timing.latency)
+            for message in parser.feed(data) if data else parser.finish():
+                if type(message) is cls:
+                    self._resolve(message)
+                    got.append(message)
+                elif isinstance(message, Request):
+                    self.stats.echo_frames += 1
+                else:
+                    self._settle_frame(message)
+            if not data or any(m.id == request.id for m in got):
+                break
+        self.stats.dropped_bytes += parser.stats.dropped_bytes
+        return got, parser.stats.dropped_bytes > 0
 
     def return_to_baud(self, rate: int, failure: BaseException) -> Procedure[None]:
         """Cleanup after `failure` (docs/drivers.md): switch back to `rate`. If the port fails that
@@ -339,12 +497,30 @@ class BusCore:
         except Exception as also:
             failure.add_note(f"nurimc: could not return the host to {rate} bps: {also}")
 
+    def check_rate(self, rate: int, consequence: str = "") -> Procedure[None]:
+        """Raise RateRefused (with `consequence` added) if the port cannot run at `rate`: the
+        host switches to it and back, nothing is sent (docs/library.md, refused rates)."""
+        if rate == self.baudrate:
+            return
+        old = self.baudrate
+        try:
+            yield from self.set_baud(rate)
+        except RateRefused as refused:
+            raise RateRefused(f"{refused}; {consequence}" if consequence else str(refused)) from refused
+        yield from self.set_baud(old)
+
     def set_baud(self, rate: int) -> Procedure[None]:
         """Switch the host's rate. Answers still owed at the old rate are forgotten: at another
         rate they can only arrive as broken bytes, never as a frame to be taken for fresh."""
+        refused = False
         try:
             yield SetHostBaud(rate)
-        finally:  # a port that failed to switch has still taken the rate as its setting (pyserial)
-            if rate != self.baudrate:
-                self._pending.clear()
-            self.baudrate = rate
+        except RateRefused:  # the port kept its rate (the transport put it back): so does the bus
+            refused = True
+            raise
+        finally:  # a port that failed otherwise has still taken the rate as its setting (pyserial)
+            if not refused:
+                if rate != self.baudrate:
+                    self._owed.clear()
+                    self._last_seen.clear()
+                self.baudrate = rate

@@ -1,20 +1,46 @@
-"""Carrying out actions for both drivers (docs/drivers.md).
+"""Carrying out actions, once for both drivers (docs/drivers.md).
 
-Only Receive, Wait and WaitUntil block; the sync and asyncio drivers differ in just those.
+`steps` is the one trampoline: it steps a procedure, performs every action that does not
+block (send, discard, baud, note, the clock) itself, and hands the driver only what blocks,
+as a `ReadFor` or a `SleepFor` already cut to the call's deadline. The sync and asyncio
+drivers differ in just how they carry those two out.
 """
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Callable, Generator, Sequence
+from dataclasses import dataclass
+from typing import Any, TypeVar
 
+from ..errors import CallTimeout
 from ..transport import Transport
-from .actions import Action, Discard, Note, Now, Send, Sent, SetHostBaud
+from .actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
+from .clock import REAL_CLOCK, Clock
 from .log import FrameRecorder
 
 #: how long a read that starts after its deadline still looks for bytes that already came
 LATE_READ = 0.0005
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True, slots=True)
+class ReadFor:
+    """Blocking: read up to max_bytes from the transport, waiting at most `seconds`. Result: bytes."""
+
+    max_bytes: int
+    seconds: float
+
+
+@dataclass(frozen=True, slots=True)
+class SleepFor:
+    """Blocking: let `seconds` pass on the driver's clock. Result: None."""
+
+    seconds: float
+
+
+Blocking = ReadFor | SleepFor
+Steps = Generator[Blocking, Any, T]
 
 
 class Performer:
@@ -25,26 +51,32 @@ class Performer:
         transport: Transport,
         listeners: Sequence[FrameRecorder] = (),
         on_note: Callable[[Any], None] | None = None,
+        clock: Clock | None = None,
     ) -> None:
         self.transport = transport
         self.listeners = tuple(listeners)
         self.on_note = on_note
+        self.clock: Clock = clock or REAL_CLOCK
         self._late_read_for: float | None = None
+        self._late_read_found = False
 
     def read_timeout(self, until: float) -> float | None:
         """Seconds to wait in a read ending at `until`, or None: no read, time is up.
 
-        Once `until` has passed, one short read still takes what arrived meanwhile, so a host
-        that woke late (loaded) loses nothing; the next read for that `until` ends the wait."""
-        remaining = until - time.monotonic()
+        Once `until` has passed, short reads still take what arrived meanwhile (as long as each
+        finds bytes: several answers may be waiting), so a host that woke late (loaded) loses
+        nothing; the first late read that finds nothing ends the wait."""
+        remaining = until - self.clock.now()
         if remaining > 0:
             return remaining
-        if self._late_read_for == until:
+        if self._late_read_for == until and not self._late_read_found:
             return None
         self._late_read_for = until
+        self._late_read_found = False
         return LATE_READ
 
     def received(self, data: bytes) -> bytes:
+        self._late_read_found = bool(data)
         if data:
             for listener in self.listeners:
                 listener.record("rx", data)
@@ -52,14 +84,14 @@ class Performer:
 
     def perform(self, action: Action) -> Any:
         if type(action) is Send:
-            started = time.monotonic()
+            started = self.clock.now()
             self.transport.write(action.data)
-            sent = Sent(started, time.monotonic())
+            sent = Sent(started, self.clock.now())
             for listener in self.listeners:
                 listener.record("tx", action.data)
             return sent
         if type(action) is Now:
-            return time.monotonic()
+            return self.clock.now()
         if type(action) is Discard:
             return self.received(self.transport.discard_input())
         if type(action) is SetHostBaud:
@@ -70,3 +102,59 @@ class Performer:
                 self.on_note(action.event)
             return None
         raise TypeError(f"not a non-blocking action: {action!r}")
+
+
+def steps(procedure: Procedure[T], performer: Performer, timeout: float | None = None) -> Steps[T]:
+    """Step `procedure` to its end, yielding only what blocks (the driver performs it and sends
+    the result back, or throws its error in).
+
+    An error performing an action (a port that fails, an interrupt, a cancellation) is thrown
+    into the procedure at the action that failed, so its `except`/`finally` can restore the
+    bus; when `timeout` seconds have passed, CallTimeout is thrown in at the next blocking
+    action. A procedure left unfinished is closed."""
+    clock = performer.clock
+    call_deadline = None if timeout is None else clock.now() + timeout
+    result: Any = None
+    error: BaseException | None = None
+    try:
+        while True:
+            try:
+                action: Action = procedure.send(result) if error is None else procedure.throw(error)
+            except StopIteration as stop:
+                return stop.value  # type: ignore[no-any-return]
+            result, error = None, None
+            try:
+                kind = type(action)
+                if kind is Receive or kind is Wait or kind is WaitUntil:
+                    if call_deadline is not None and clock.now() >= call_deadline:
+                        call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
+                        raise CallTimeout(f"the bus call took longer than {timeout:g} s and was abandoned")
+                    result = yield from _block(action, performer, call_deadline)
+                else:
+                    result = performer.perform(action)
+            except BaseException as err:  # every failure goes to the procedure (docs/drivers.md)
+                error = err
+    finally:
+        procedure.close()
+
+
+def _block(action: Action, performer: Performer, call_deadline: float | None) -> Generator[Blocking, Any, Any]:
+    clock = performer.clock
+    if type(action) is Receive:
+        until = action.until if call_deadline is None else min(action.until, call_deadline)
+        wait = performer.read_timeout(until)
+        if wait is None:
+            return b""
+        data = yield ReadFor(action.max_bytes, wait)
+        return performer.received(data)
+    if type(action) is Wait:
+        seconds = action.seconds if call_deadline is None else min(action.seconds, call_deadline - clock.now())
+        if seconds > 0:
+            yield SleepFor(seconds)
+        return None
+    assert type(action) is WaitUntil
+    when = action.when if call_deadline is None else min(action.when, call_deadline)
+    delay = when - clock.now()
+    if delay > 0:
+        yield SleepFor(delay)
+    return clock.now()

@@ -3,18 +3,17 @@
 from __future__ import annotations
 
 import threading
-import time
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from ..errors import CallTimeout
 from ..motor import Motor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Action, Procedure, Receive, Wait, WaitUntil
-from .core import BusCore
-from .log import FrameRecorder, TrafficLog
-from .perform import Performer
+from .actions import Procedure
+from .clock import REAL_CLOCK, Clock
+from .log import FrameRecorder
+from .options import Listeners, make_core
+from .perform import Performer, ReadFor, steps
 from .timing import Timing
 
 T = TypeVar("T")
@@ -26,88 +25,33 @@ def drive(
     listeners: FrameRecorder | Sequence[FrameRecorder] | None = None,
     on_note: Callable[[Any], None] | None = None,
     timeout: float | None = None,
+    clock: Clock | None = None,
 ) -> T:
     """Carry out a procedure's actions on a transport until it returns (docs/drivers.md).
 
-    An error performing an action (a port that fails, an interrupt) is thrown into the
-    procedure at the action that failed, so its `except`/`finally` can restore the bus; when
-    `timeout` seconds have passed, CallTimeout is thrown in at the next blocking action. A
-    procedure this driver leaves unfinished is closed.
-    """
+    The trampoline (`perform.steps`) does the stepping, the error routing and the call
+    timeout; this driver only blocks: reads on the transport, sleeps on `clock` (default: the
+    real one)."""
     if listeners is None:
         listeners = ()
     elif not isinstance(listeners, Sequence):
         listeners = (listeners,)
-    performer = Performer(transport, listeners, on_note)
-    call_deadline = None if timeout is None else time.monotonic() + timeout
+    stepper = steps(procedure, Performer(transport, listeners, on_note, clock), timeout)
     result: Any = None
     error: BaseException | None = None
-    try:
-        while True:
-            try:
-                action: Action = procedure.send(result) if error is None else procedure.throw(error)
-            except StopIteration as stop:
-                return stop.value  # type: ignore[no-any-return]
-            result, error = None, None
-            try:
-                blocking = type(action) in (Receive, Wait, WaitUntil)
-                if blocking and call_deadline is not None and time.monotonic() >= call_deadline:
-                    call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
-                    raise CallTimeout(f"the bus call took longer than {timeout:g} s and was abandoned")
-                result = _perform(performer, transport, action, call_deadline)
-            except BaseException as err:  # every failure goes to the procedure (docs/drivers.md)
-                error = err
-    finally:
-        procedure.close()
-
-
-def _perform(performer: Performer, transport: Transport, action: Action, call_deadline: float | None) -> Any:
-    if type(action) is Receive:
-        until = action.until if call_deadline is None else min(action.until, call_deadline)
-        wait = performer.read_timeout(until)
-        return b"" if wait is None else performer.received(transport.read(action.max_bytes, wait))
-    if type(action) is Wait:
-        seconds = action.seconds if call_deadline is None else min(action.seconds, call_deadline - time.monotonic())
-        if seconds > 0:
-            time.sleep(seconds)
-        return None
-    if type(action) is WaitUntil:
-        when = action.when if call_deadline is None else min(action.when, call_deadline)
-        delay = when - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-        return time.monotonic()
-    return performer.perform(action)
-
-
-class Listeners:
-    """The bus's listeners (python-can style): every byte sent and received goes to each."""
-
-    def __init__(self, log_path: str | None, tracer: FrameRecorder | None, more: Sequence[FrameRecorder]) -> None:
-        self.items: list[FrameRecorder] = list(more)
-        if tracer is not None:
-            self.items.append(tracer)
-        if log_path:
-            self.items.append(TrafficLog(log_path))
-
-    def close(self) -> None:
-        for listener in self.items:
-            listener.close()
-
-
-def make_core(transport: Transport, retries: int, timing: Timing | None, options: dict[str, Any]) -> BusCore:
-    """The BusCore both buses build from their keyword options (see Bus)."""
-    core = BusCore(baudrate=transport.baudrate, retries=retries, timing=timing or Timing(latency=transport.latency))
-    if "busy_window" in options:
-        core.busy_window = options.pop("busy_window")
-    core.busy_windows.update(options.pop("busy_windows", None) or {})
-    if "late_answer" in options:
-        core.late_answer = options.pop("late_answer")
-    if "retry_pause" in options:
-        core.retry_pause = options.pop("retry_pause")
-    if options:
-        raise TypeError(f"unknown bus option(s): {', '.join(sorted(options))}")
-    return core
+    while True:
+        try:
+            block = stepper.send(result) if error is None else stepper.throw(error)
+        except StopIteration as stop:
+            return stop.value  # type: ignore[no-any-return]
+        result, error = None, None
+        try:
+            if type(block) is ReadFor:
+                result = transport.read(block.max_bytes, block.seconds)
+            else:
+                (clock or REAL_CLOCK).sleep(block.seconds)
+        except BaseException as err:  # thrown into the procedure at the action that failed
+            error = err
 
 
 class Bus:
@@ -117,7 +61,8 @@ class Bus:
         print(bus.motor(1).read_state())
 
     Options: retries, timing, busy_window (s, every ID), busy_windows ({id: s}), late_answer (s),
-    retry_pause (s); log_path (a traffic log), tracer and listeners (byte listeners, all kept).
+    retry_pause (s); log_path (a traffic log), tracer and listeners (byte listeners, all kept);
+    clock (default: the real one; a VirtualClock shared with a SimBus runs on virtual time).
     """
 
     def __init__(
@@ -128,9 +73,11 @@ class Bus:
         log_path: str | None = None,
         tracer: FrameRecorder | None = None,
         listeners: Sequence[FrameRecorder] = (),
+        clock: Clock | None = None,
         **options: Any,
     ) -> None:
         self.transport = transport
+        self.clock: Clock = clock or REAL_CLOCK
         self.core = make_core(transport, retries, timing, options)
         self._lock = threading.RLock()
         self._listeners = Listeners(log_path, tracer, listeners)
@@ -179,7 +126,7 @@ class Bus:
         """Run any procedure (from core, motor, group, discovery, config) under the bus lock;
         `timeout`: seconds for the whole call, then CallTimeout (after the procedure's cleanup)."""
         with self._lock:
-            return drive(procedure, self.transport, self._listeners.items, on_note, timeout)
+            return drive(procedure, self.transport, self._listeners.items, on_note, timeout, self.clock)
 
     def request(self, request: Request, retries: int | None = None) -> Message:
         """Send a feedback request and return the checked answer (raises NoAnswer & co.)."""

@@ -18,6 +18,7 @@ import time
 from collections import defaultdict
 from collections.abc import Callable
 
+from ..client.clock import VirtualClock
 from ..protocol import BAUD_RATES, BROADCAST_ID, decode
 from ..sniff import ExplainingParser, SniffedFrame
 from .controller import EEPROM_TIME, Reply, SimController
@@ -72,8 +73,11 @@ class WireModel:
     """The simulator's wire model: simulated controllers on one RS485 bus, the bytes in flight,
     collisions, rates and faults (the host library's protocol core is nurimc.client.core.BusCore).
 
-    `clock` returns seconds (default time.monotonic); tests may pass a fake one and move
-    it themselves. With `wire_timing` every byte takes 10 bits / baud on the wire.
+    `clock` returns seconds (default time.monotonic). A `nurimc.client.clock.VirtualClock`
+    makes the bus run on virtual time: physics follows every move of that clock, and a read
+    on an in-process port that finds nothing moves the clock to the next byte due (or to the
+    read's end) instead of sleeping; give the same clock to the library's Bus.
+    With `wire_timing` every byte takes 10 bits / baud on the wire.
     `profiles` (default: spec/profiles.json) give each product's factory gains and speed-0
     rule; `speed_zero` ("ignore" or "stop") overrides that rule for every controller.
     """
@@ -100,6 +104,8 @@ class WireModel:
         self.profiles = profiles or default_profiles()
         self._clock = clock or time.monotonic
         self._real_clock = clock is None
+        #: the virtual clock this bus moves when a reader waits (None: time moves by itself)
+        self.virtual: VirtualClock | None = clock if isinstance(clock, VirtualClock) else None
         self.lock = threading.RLock()
         self.changed = threading.Condition(self.lock)
         self.controllers: list[SimController] = []
@@ -112,8 +118,11 @@ class WireModel:
         self._garbler = Garbler(seed + 0x6A5)
         self._store = StateStore(state_dir) if state_dir is not None else None
         self._host_free_at = 0.0
+        self._uart_free: dict[int, float] = {}  # per controller slot: when its last answer ends
         self._ticker: threading.Thread | None = None
         self._closing = threading.Event()
+        if self.virtual is not None:
+            self.virtual.on_advance(self._follow)
 
     # --- building ---------------------------------------------------------------------------
     def now(self) -> float:
@@ -267,7 +276,12 @@ class WireModel:
         if delay is None:
             log.debug("id %d answer lost (miss fault)", reply.controller.id)
             return
-        tx = Transmission(reply.start + delay, reply.baud, bytearray(reply.frame), [reply.controller.id])
+        # one UART per controller: its answers leave in the order they were asked for, never
+        # overlapping (a late answer holds back the ones after it, as on a real controller)
+        start = max(reply.start + delay, self._uart_free.get(reply.controller.slot, 0.0))
+        frame = reply.frame * 2 if self.faults.duplicate() else reply.frame
+        tx = Transmission(start, reply.baud, bytearray(frame), [reply.controller.id])
+        self._uart_free[reply.controller.slot] = tx.end
         if log.isEnabledFor(logging.DEBUG):
             log.debug("id %d <- %s  [%s]", reply.controller.id, decode(reply.frame), reply.frame.hex(" "))
         merged = True
@@ -324,10 +338,9 @@ class WireModel:
         with self.lock:
             if not self.airborne:
                 return None
-            tx = self.airborne[0]
             if self.wire_timing:
-                return tx.start + (tx.delivered + 1) * tx.byte_time
-            return tx.start
+                return min(tx.start + (tx.delivered + 1) * tx.byte_time for tx in self.airborne)
+            return self.airborne[0].start
 
     def wait_hint(self, cap: float = 0.05) -> float:
         """Seconds a reader may sleep before something can be delivered (capped)."""
@@ -351,6 +364,27 @@ class WireModel:
                 if not c.servo.static:
                     c.advance_to(now)
             self.pump(now)
+
+    def _follow(self, now: float) -> None:
+        if not self._closing.is_set():
+            self.advance(now)
+
+    def wait_virtually(self, until: float | None) -> bool:
+        """On virtual time: move the clock to the next byte due for the hosts, or to `until`
+        if that comes first (None: no limit). False when there is nothing to wait for (time
+        stands at `until`, or nothing is on the way and no limit was given)."""
+        assert self.virtual is not None
+        with self.lock:
+            now = self.now()
+            due = self.next_delivery()
+            target = until if due is None else (due if until is None else min(due, until))
+            if target is None or target <= now:
+                if due is not None and due <= now:  # due now (rounding): nudge time past it
+                    self.virtual.advance_to(now + 1e-9)
+                    return True
+                return False
+            self.virtual.advance_to(target)
+            return True
 
     def _start_ticker(self) -> None:
         if not self._real_clock or self._ticker is not None:

@@ -18,13 +18,14 @@ class FaultConfig:
     delay_ms: float = 0.0  # an answer starts this much later ...
     delay_rate: float = 1.0  # ... with this probability
     miss_rate: float = 0.0  # a controller does not answer at all
+    dup_rate: float = 0.0  # an answer arrives twice, back to back (a repeating adapter or line)
     echo: bool = False  # the adapter echoes the host's own bytes back to it
     # A frame the host gets has two bytes changed by +d and -d: the checksum still holds, so the
     # frame is taken as valid with wrong values (noise an 8-bit sum cannot catch; issue 21).
     same_sum_rate: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate", "same_sum_rate"):
+        for name in ("drop_rate", "flip_rate", "noise_rate", "delay_rate", "miss_rate", "same_sum_rate", "dup_rate"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
                 raise ValueError(f"fault {name} = {value} is not a probability; use 0..1")
@@ -41,6 +42,7 @@ class FaultConfig:
             or self.noise_rate
             or self.delay_ms
             or self.miss_rate
+            or self.dup_rate
             or self.echo
             or self.same_sum_rate
         )
@@ -52,7 +54,7 @@ class FaultInjector:
     def __init__(self, config: FaultConfig, seed: int) -> None:
         self.config = config
         self.rng = random.Random(seed)
-        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0, "same_sum": 0}
+        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0, "same_sum": 0, "duplicated": 0}
         self._same_sum = SameSum(self.rng, config.same_sum_rate, self.counts) if config.same_sum_rate else None
 
     def corrupt(self, data: bytes, noise: bool) -> bytes:

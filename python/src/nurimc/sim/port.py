@@ -76,6 +76,8 @@ class SimSerial(SerialBase):
         link = self._require_link()
         bus = link.bus
         out = bytearray()
+        if bus.virtual is not None:
+            return self._read_virtual(link, size)
         deadline = None if self.timeout is None else time.monotonic() + self.timeout
         with bus.changed:
             while True:
@@ -91,6 +93,22 @@ class SimSerial(SerialBase):
                     break
                 wait = bus.wait_hint()
                 bus.changed.wait(wait if remaining is None else min(wait, remaining))
+        return bytes(out)
+
+    def _read_virtual(self, link: HostLink, size: int) -> bytes:
+        """On virtual time: wait by moving the clock, never by sleeping."""
+        bus = link.bus
+        out = bytearray()
+        with bus.lock:
+            deadline = None if self.timeout is None else bus.now() + self.timeout
+            while True:
+                bus.pump()
+                if link.rx and len(out) < size:
+                    n = min(size - len(out), len(link.rx))
+                    out += link.rx[:n]
+                    del link.rx[:n]
+                if len(out) >= size or not self.is_open or not bus.wait_virtually(deadline):
+                    break
         return bytes(out)
 
     def write(self, b: ReadableBuffer, /) -> int:

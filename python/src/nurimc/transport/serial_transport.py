@@ -3,6 +3,7 @@ and the schemes of the backend table (sim://, plugins: see backends.py)."""
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import logging
 import os
@@ -12,10 +13,32 @@ from typing import Any
 
 import serial
 
-from ..errors import PortError
+from ..errors import PortError, RateRefused
 from .backends import find_backend, known_schemes, scheme_of
 from .latency import estimate_latency
 from .rs485 import RS485, RtsDirection, enable_rs485, rs485_options
+
+try:  # pyserial lets termios.error (not an OSError) out of tcsetattr on a refused rate
+    import termios
+
+    TERMIOS_ERRORS: tuple[type[Exception], ...] = (termios.error,)
+except ImportError:  # pragma: no cover - not POSIX
+    TERMIOS_ERRORS = ()
+#: what setting a rate may raise (pyserial, the OS, termios)
+SET_RATE_ERRORS: tuple[type[Exception], ...] = (serial.SerialException, OSError, ValueError, *TERMIOS_ERRORS)
+
+
+def refuses_rate(err: Exception) -> bool:
+    """Does this error from setting a rate say the adapter cannot do that rate (EINVAL), rather
+    than that the port is gone? pyserial raises ValueError for a custom rate the driver refuses,
+    termios.error/OSError with EINVAL for a standard one, SerialException wrapping either."""
+    if isinstance(err, ValueError):
+        return True
+    code = getattr(err, "errno", None)
+    if code is None and err.args and isinstance(err.args[0], int):
+        code = err.args[0]
+    text = str(err)
+    return code == errno.EINVAL or "Errno 22" in text or "Invalid argument" in text or "parameter is incorrect" in text
 
 
 def _port_error(url: str, err: Exception) -> PortError:
@@ -64,10 +87,15 @@ class SerialTransport:
 
     @baudrate.setter
     def baudrate(self, rate: int) -> None:
+        before = self.port.baudrate
         try:
             self.port.baudrate = rate
-        except (serial.SerialException, OSError, ValueError) as err:
-            raise PortError(f"{self.url}: cannot set {rate} bps: {err}") from err
+        except SET_RATE_ERRORS as err:
+            if not refuses_rate(err):
+                raise PortError(f"{self.url}: cannot set {rate} bps: {err}") from err
+            with contextlib.suppress(*SET_RATE_ERRORS):  # the port took the rate as its setting (pyserial):
+                self.port.baudrate = before  # give it back the one it runs at
+            raise RateRefused(f"the adapter at {self.url} cannot be set to {rate} bps ({err})") from err
 
     def write(self, data: bytes) -> None:
         try:
