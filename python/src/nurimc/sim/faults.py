@@ -89,6 +89,13 @@ class FaultInjector:
             return c.delay_ms / 1000
         return 0.0
 
+    def duplicate(self) -> bool:
+        """Does this answer arrive twice?"""
+        if self.config.dup_rate and self.rng.random() < self.config.dup_rate:
+            self.counts["duplicated"] += 1
+            return True
+        return False
+
 
 class SameSum:
     """Follows the frames in the bytes towards the host, however they are cut into chunks, and
