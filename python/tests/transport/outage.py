@@ -21,7 +21,9 @@ def cuttable_bus(kind: str, tmp: Path, ids: tuple[int, ...] = (1,)) -> Iterator[
     for device_id in ids:
         sim.add_controller(id=device_id, baud=BAUD)
     server = sim.serve_tcp(port=0, baud=BAUD)
-    proxy = FaultProxy(server.address, link=str(tmp / "ttyCut") if kind == "pty" else None, tcp_port=None if kind == "pty" else 0)
+    proxy = FaultProxy(
+        server.address, link=str(tmp / "ttyCut") if kind == "pty" else None, tcp_port=None if kind == "pty" else 0
+    )
     proxy.start()
     try:
         yield sim, proxy

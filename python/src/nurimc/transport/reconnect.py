@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypeVar
 
 from ..errors import PortError, PortLost
 from .base import Transport
@@ -37,6 +38,7 @@ BY_ID = Path("/dev/serial/by-id")
 
 log = logging.getLogger("nurimc")
 
+T = TypeVar("T")
 Opener = Callable[[str, int], Transport]  # (path, baudrate) -> an open transport, PortError if not
 
 
@@ -89,7 +91,9 @@ def by_id_names(path: str, directory: Path = BY_ID) -> list[str]:
         return []
     try:
         target = os.path.realpath(path)
-        return sorted(str(link) for link in directory.iterdir() if os.path.realpath(link) == target and str(link) != path)
+        return sorted(
+            str(link) for link in directory.iterdir() if os.path.realpath(link) == target and str(link) != path
+        )
     except OSError:
         return []
 
@@ -121,6 +125,7 @@ class ReconnectingTransport:
         self._up = threading.Event()
         self._up.set()
         self._closing = threading.Event()
+        self._kick = threading.Event()  # set: stop waiting, try now (retry_now, close)
         self._thread: threading.Thread | None = None
         self._watchers: list[Callable[[PortEvent], None]] = []
         self._on_return: dict[str, bytes] = {}
@@ -199,6 +204,7 @@ class ReconnectingTransport:
 
     def close(self) -> None:
         self._closing.set()
+        self._kick.set()
         thread = self._thread
         if thread is not None and thread is not threading.current_thread():
             thread.join(timeout=5)
@@ -217,7 +223,7 @@ class ReconnectingTransport:
             raise PortLost(self.lost_text())
         return inner
 
-    def _guard(self, inner: Transport, call: Callable[[], object]) -> object:
+    def _guard(self, inner: Transport, call: Callable[[], T]) -> T:
         try:
             return call()
         except PortError as error:
@@ -247,9 +253,17 @@ class ReconnectingTransport:
         text = f"port {self.url} lost ({self.cause}); reopening it in the background"
         self._tell(PortEvent("lost", self.url, text, self.lost_at))
 
+    def retry_now(self) -> None:
+        """Try to reopen at once instead of at the next backoff step (a person asked for it)."""
+        self._kick.set()
+
     def _reopen_loop(self) -> None:
         delay, longest = self._backoff
-        while not self._closing.wait(delay):
+        while True:
+            self._kick.wait(delay)
+            self._kick.clear()
+            if self._closing.is_set():
+                return
             inner = self._try_open()
             if inner is not None and self._come_back(inner):
                 return
