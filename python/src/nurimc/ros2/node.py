@@ -16,9 +16,10 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from ..client.sync import Bus
-from ..errors import NurimcError
+from ..errors import NurimcError, PortLost
 from ..group import read_states, read_states_broadcast, stagger
 from ..motor import Motor, MotorState
+from ..outage import OutageGuard
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
@@ -67,6 +68,7 @@ class BridgeNode:
         self.sink = sink
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
         self._logged: dict[str, float] = {}
+        self.outage = OutageGuard(bus.transport, self._log)  # port lost and back (docs/ros2.md, "Port lost")
         self.joint_states_topic = topic(namespace, "joint_states")
         self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
         self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
@@ -170,6 +172,8 @@ class BridgeNode:
                         self._wake.wait(wake_at - now)
                         continue
             now = time.monotonic()
+            if self.outage.returned():  # before anything else: stops owed, fresh states
+                self._resume()
             if event is not None:
                 self._handle(*event, now)
                 continue
@@ -181,6 +185,16 @@ class BridgeNode:
                 self.publish_diagnostics()
                 next_diagnostics = now + DIAGNOSTICS_PERIOD
         self._carry_out(self.bridge.shutdown())
+        self.outage.ending()
+
+    def _resume(self) -> None:
+        """The port is back: control off already went first to each motor whose stop was owed;
+        read every motor, then hold those where they are (as the command timeout would have)."""
+        held = self.outage.take_stops()
+        self.read_and_publish()
+        for device_id in held:
+            if device_id in self.motors:
+                self._carry_out([Hold(device_id)])
 
     def _handle(self, kind: str, value: Any, now: float) -> None:
         try:
@@ -199,6 +213,12 @@ class BridgeNode:
         for action in actions:
             try:
                 self._perform(action)
+            except PortLost as error:  # dropped, never replayed; a stop is owed on the return
+                if isinstance(action, Hold | ReleaseAll):
+                    ids = action.ids if isinstance(action, ReleaseAll) else (action.id,)
+                    self.outage.stop_failed(ids, error, ending=self._stopping)
+                else:
+                    self._report("port", f"dropped while the port is lost (not replayed): {action}")
             except (NurimcError, FieldRangeError, ValueError) as error:
                 self._report(f"action{getattr(action, 'id', '')}", f"error: {action}: {error}")
 
