@@ -37,6 +37,8 @@ class OutageGuard:
         self._seen = self.transport.returns if self.transport is not None else 0
         #: motors whose stop waits for the port's return (ID -> why), then to be held
         self.stops_on_return: dict[int, str] = {}
+        #: motors a tool ending (or failing) could not stop
+        self.not_stopped: set[int] = set()
         if self.transport is not None:
             self.transport.watch(self._event)
 
@@ -63,6 +65,7 @@ class OutageGuard:
         ids = sorted(set(ids))
         text = ", ".join(map(str, ids))
         if ending or not isinstance(error, PortLost) or self.transport is None:
+            self.not_stopped.update(ids)
             self.say(
                 f"could not stop ID {text}: {error}. The motors may still be turning: "
                 "stop them by other means (cut their power)"

@@ -186,6 +186,9 @@ class BridgeNode:
                 next_diagnostics = now + DIAGNOSTICS_PERIOD
         self._carry_out(self.bridge.shutdown())
         self.outage.ending()
+        if self.outage.not_stopped and self.outage.down:
+            ids = ", ".join(map(str, sorted(self.outage.not_stopped)))
+            self.failure = f"the port is lost: ID {ids} could not be stopped and may still be turning"
 
     def _resume(self) -> None:
         """The port is back: control off already went first to each motor whose stop was owed;
@@ -272,7 +275,7 @@ class BridgeNode:
             results = {device_id: error for device_id in self.motors}
         self.bridge.readings(results)
         for joint in self.bridge.joints:
-            if joint.error:
+            if joint.error and not self.outage.down:  # a lost port is said once, by the outage guard
                 self._report(f"read{joint.id}", f"ID {joint.id}: {joint.error}")
         message = self.bridge.joint_state(time.time_ns())
         if message is not None:

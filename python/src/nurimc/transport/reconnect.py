@@ -312,7 +312,9 @@ class ReconnectingTransport:
         return True
 
     def _tell(self, event: PortEvent) -> None:
-        (log.warning if event.kind == "lost" else log.info)(event.text)
+        # a watcher says it (the tools); without one, Python's last-resort handler shows the warning
+        loud = event.kind == "lost" and not self._watchers
+        (log.warning if loud else log.info)(event.text)
         for watcher in list(self._watchers):
             try:
                 watcher(event)
