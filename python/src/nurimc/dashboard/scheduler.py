@@ -58,10 +58,19 @@ class Scheduler:
         with self.cond:
             return len(self._queues.get(owner, ()))
 
-    def submit(self, command: c.Command, done: Done, owner: object = None, generation: int | None = None) -> None:
-        """Queue a command; `done` is always called exactly once, from any thread."""
+    def submit(
+        self,
+        command: c.Command,
+        done: Done,
+        owner: object = None,
+        generation: int | None = None,
+        received: Callable[[int], None] | None = None,
+    ) -> None:
+        """Queue a command; `done` is always called exactly once, from any thread. For an
+        emergency stop, `received(new generation)` is called before anything else is answered."""
         cancelled: list[Job] = []
         refusal: str | None = None
+        stop_generation = 0
         with self.cond:
             if isinstance(command, c.EmergencyStop):
                 self.stop_requested.set()
@@ -74,6 +83,7 @@ class Scheduler:
                 else:
                     self._stop = Job(command, done, owner, self.generation)
                 self.cond.notify_all()
+                stop_generation = self.generation
             elif generation is not None and generation < self.generation:
                 refusal = f"refused: sent before emergency stop #{self.generation}; press the button again"
             elif len(self._queues.get(owner, ())) >= self.max_pending:
@@ -81,6 +91,8 @@ class Scheduler:
             else:
                 self._queues.setdefault(owner, deque()).append(Job(command, done, owner, self.generation))
                 self.cond.notify_all()
+        if received is not None and isinstance(command, c.EmergencyStop):
+            received(stop_generation)  # the receipt first, then the thousands of "cancelled"
         for job in cancelled:
             job.finish(None, CANCELLED)
         if refusal is not None:

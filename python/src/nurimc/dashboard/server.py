@@ -415,6 +415,7 @@ async def _receive_loop(
             text = _reply(req, result, error)
             loop.call_soon_threadsafe(box.put, text)
 
-        worker.submit(command, done, owner=box, generation=generation)
-        if isinstance(command, c.EmergencyStop):  # received: the page stops waiting for a server that is gone
-            box.put_first(json.dumps({"type": "estop_received", "req": req, "generation": worker.generation}))
+        def received(stop_generation: int, req: Any = req) -> None:  # the page stops waiting for a server that is gone
+            box.put_first(json.dumps({"type": "estop_received", "req": req, "generation": stop_generation}))
+
+        worker.submit(command, done, owner=box, generation=generation, received=received)

@@ -126,9 +126,16 @@ class BusWorker:
         if self.stop_pending:  # the console ends with the stop never carried out: say so
             self.publish({"type": "port", "state": "closed", **self.port_state()})
 
-    def submit(self, command: c.Command, done: Done, owner: object = None, generation: int | None = None) -> None:
-        """Queue a command; `done` is always called exactly once, from any thread."""
-        self.jobs.submit(command, done, owner, generation)
+    def submit(
+        self,
+        command: c.Command,
+        done: Done,
+        owner: object = None,
+        generation: int | None = None,
+        received: Callable[[int], None] | None = None,
+    ) -> None:
+        """Queue a command; `done` is always called exactly once, from any thread (scheduler.py)."""
+        self.jobs.submit(command, done, owner, generation, received)
 
     def forget(self, owner: object) -> None:
         """A page went away: its queued commands are dropped, not carried out for no one."""

@@ -31,9 +31,11 @@ from typing import TypeVar
 from ..errors import PortError, PortLost
 from .base import Transport
 
-#: first reopen attempt after a loss, and the longest pause between attempts (doubled each time)
-BACKOFF_FIRST = 0.1
-BACKOFF_MAX = 1.0
+#: first reopen attempt after a loss, and the longest pause between attempts (doubled each time):
+#: an attempt is one open() that fails at once, so a few a second cost nothing, and the port is
+#: in use again at most BACKOFF_MAX after it returns (a stop owed goes out then)
+BACKOFF_FIRST = 0.05
+BACKOFF_MAX = 0.2
 BY_ID = Path("/dev/serial/by-id")
 
 log = logging.getLogger("nurimc")
