@@ -8,7 +8,8 @@ and hold an OutageGuard:
   is dropped, so no stale motion command is ever replayed;
 - a stop that could not be sent (a command-timeout hold, an estop) is registered as the first
   frame on the port's return: control off (SetControl 1) to that motor, which stops driving it
-  at once whatever it was doing; the tool then holds it where it is once it has read its state;
+  at once whatever it was doing. It is left released (control off), not held: a hold turns
+  control on first, an EEPROM write that keeps the controller deaf for up to 300 ms;
 - `returned()` is True once after each return: the tool re-reads every motor's state before
   it sends anything else;
 - a tool ending while the port is down says which motors it could not stop.
@@ -85,7 +86,7 @@ class OutageGuard:
             self.stop_failed(ids, PortLost(self.transport.lost_text()), ending=True)
 
     def take_stops(self) -> list[int]:
-        """The motors stopped on the return (control off went first): to be held where they are."""
+        """The motors stopped on the return (control off went first), and forget them."""
         ids = sorted(self.stops_on_return)
         self.stops_on_return.clear()
         return ids

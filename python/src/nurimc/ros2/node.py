@@ -191,13 +191,13 @@ class BridgeNode:
             self.failure = f"the port is lost: ID {ids} could not be stopped and may still be turning"
 
     def _resume(self) -> None:
-        """The port is back: control off already went first to each motor whose stop was owed;
-        read every motor, then hold those where they are (as the command timeout would have)."""
-        held = self.outage.take_stops()
+        """The port is back: control off already went first to each motor whose stop was owed
+        (it stays released: holding would turn control on, an EEPROM write that keeps the
+        controller deaf for up to 300 ms). What was known of control before is forgotten, so the
+        next motion reads it first; every motor is read before anything else is sent."""
+        self.outage.take_stops()
+        self.bus.core.control_released.clear()
         self.read_and_publish()
-        for device_id in held:
-            if device_id in self.motors:
-                self._carry_out([Hold(device_id)])
 
     def _handle(self, kind: str, value: Any, now: float) -> None:
         try:

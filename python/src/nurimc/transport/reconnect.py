@@ -33,9 +33,9 @@ from .base import Transport
 
 #: first reopen attempt after a loss, and the longest pause between attempts (doubled each time):
 #: an attempt is one open() that fails at once, so a few a second cost nothing, and the port is
-#: in use again at most BACKOFF_MAX after it returns (a stop owed goes out then)
+#: in use again at most BACKOFF_MAX (0.1 s) after it returns (a stop owed goes out then)
 BACKOFF_FIRST = 0.05
-BACKOFF_MAX = 0.2
+BACKOFF_MAX = 0.1
 BY_ID = Path("/dev/serial/by-id")
 
 log = logging.getLogger("nurimc")
