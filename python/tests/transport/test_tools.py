@@ -70,12 +70,19 @@ def test_sniff_listens_again_when_its_port_returns(tmp_path: Path) -> None:
     talker = threading.Thread(target=host, daemon=True)
     talker.start()
     try:
-        sniff = start("--port", proxy.url, "--baud", str(BAUD), "--json", "sniff", "--duration", "3")
-        time.sleep(1.0)
+        sniff = start("--port", proxy.url, "--baud", str(BAUD), "sniff", "--duration", "4")
+        lines: list[str] = []
+        assert sniff.stdout is not None
+        reader = threading.Thread(target=lambda: lines.extend(sniff.stdout), daemon=True)  # type: ignore[arg-type]
+        reader.start()
+        wait_until(lambda: len(lines) >= 5, 20)  # listening
         proxy.cut()
         time.sleep(CUT)
         proxy.restore()
-        out, err = sniff.communicate(timeout=30)
+        sniff.wait(timeout=30)
+        reader.join(timeout=5)
+        assert sniff.stderr is not None
+        err = sniff.stderr.read()
     finally:
         talking.clear()
         talker.join()
@@ -85,7 +92,7 @@ def test_sniff_listens_again_when_its_port_returns(tmp_path: Path) -> None:
         sim.close()
     assert sniff.returncode == 0, err
     assert err.count(" lost (") == 1 and err.count("back after") == 1, err
-    times = [frame["t"] for frame in json.loads(out)["frames"]]
+    times = [float(line.split()[0]) for line in lines if "id=" in line]
     gaps = [(a, b) for a, b in itertools.pairwise(times) if b - a >= CUT * 0.8]
     assert len(gaps) == 1, gaps  # the outage, and frames again after it
     assert times[-1] - gaps[0][1] > 0.3
