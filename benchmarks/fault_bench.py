@@ -209,10 +209,13 @@ class Page:
 
     def wait(self, test: Any, timeout: float = 20, after: float = 0.0) -> tuple[float, dict[str, Any]]:
         deadline = time.monotonic() + timeout
+        start = next((i for i in range(len(self.messages) - 1, -1, -1) if self.messages[i][0] < after), -1) + 1
         while time.monotonic() < deadline:
-            for at, message in list(self.messages):
+            end = len(self.messages)
+            for at, message in self.messages[start:end]:
                 if at >= after and test(message):
                     return at, message
+            start = end
             time.sleep(0.002)
         raise RuntimeError(f"no such message within {timeout} s")
 
@@ -282,6 +285,21 @@ def peak_rss_mb(pid: int) -> float:
     return math.nan
 
 
+def estops(page: Page, count: int = 5) -> tuple[list[float], list[float], list[Any]]:
+    """Press E-STOP `count` times: (receipt seconds, reply seconds, read-back) of each."""
+    receipts, replies, controls = [], [], []
+    for _ in range(count):
+        req = f"stop-{time.monotonic_ns()}"
+        at = page.send(op="estop", req=req)
+        got, _ = page.wait(lambda m, r=req: m.get("type") == "estop_received" and m.get("req") == r, 30, at)
+        done, reply = page.wait(lambda m, r=req: m.get("type") == "reply" and m.get("req") == r, 60, at)
+        receipts.append(got - at)
+        replies.append(done - at)
+        controls.append((reply.get("result") or {}).get("control"))
+        time.sleep(0.5)
+    return receipts, replies, controls
+
+
 def flood() -> dict[str, Any]:
     server, base = dashboard(sim=True)
     pid = server.p.pid
@@ -290,22 +308,14 @@ def flood() -> dict[str, Any]:
         page.wait(lambda m: m.get("type") == "hello")
         assert page.ask("discover", rates=[115200, 57600], timeout=60)["ok"]
         rss_before = peak_rss_mb(pid)
+        calm_receipts, calm_replies, _ = estops(page)  # side by side: the same stop without the flood
         # the flooding pages run in a process of their own, as other browsers would
         flooders = Proc(sys.executable, __file__, "--flood", base, str(FLOOD_PAGES), str(FLOOD_MESSAGES))
         flooders.wait_line(lambda line: line.startswith("connected"), 30)
         cpu0, t0 = cpu_seconds(pid), time.monotonic()
         flooders.p.send_signal(signal.SIGUSR1)  # go
         time.sleep(2.0)
-        receipts, replies, controls = [], [], []
-        for _ in range(5):
-            req = f"stop-{time.monotonic_ns()}"
-            at = page.send(op="estop", req=req)
-            got, _ = page.wait(lambda m, r=req: m.get("type") == "estop_received" and m.get("req") == r, 30, at)
-            done, reply = page.wait(lambda m, r=req: m.get("type") == "reply" and m.get("req") == r, 60, at)
-            receipts.append(got - at)
-            replies.append(done - at)
-            controls.append((reply.get("result") or {}).get("control"))
-            time.sleep(0.5)
+        receipts, replies, controls = estops(page)
         cpu_flood = (cpu_seconds(pid) - cpu0) / (time.monotonic() - t0)
         flooders.stop(signal.SIGTERM)  # the flood ends: the pages go away
         sent_line = next((line for _, line in flooders.lines if line.startswith("sent")), "sent ?")
@@ -314,7 +324,6 @@ def flood() -> dict[str, Any]:
         cpu1, t1 = cpu_seconds(pid), time.monotonic()
         time.sleep(3.0)
         cpu_after = (cpu_seconds(pid) - cpu1) / (time.monotonic() - t1)
-        cpu_idle_ref = None
         still = page.ask("read_settings", id=1)
         rss_peak = peak_rss_mb(pid)
     finally:
@@ -328,9 +337,10 @@ def flood() -> dict[str, Any]:
         "estop_reply_ms": [ms(r) for r in replies],
         "estop_reply_median_ms": ms(statistics.median(replies)),
         "estop_read_back": controls,
+        "without_flood_estop_receipt_ms": [ms(r) for r in calm_receipts],
+        "without_flood_estop_reply_median_ms": ms(statistics.median(calm_replies)),
         "server_cpu_during_flood": round(cpu_flood, 2),
         "server_cpu_after_flood": round(cpu_after, 3),
-        "server_cpu_idle_reference": cpu_idle_ref,
         "server_peak_rss_mb": rss_peak,
         "server_rss_before_flood_mb": rss_before,
         "console_answers_after_flood": still["ok"],

@@ -48,6 +48,7 @@ class Scheduler:
         self.generation = 0  # bumped by every emergency stop
         self._queues: OrderedDict[object, deque[Job]] = OrderedDict()  # in turn order
         self._stop: Job | None = None
+        self._cancelled: list[Job] = []  # answered "cancelled" once the stop has gone out
         #: set while an emergency stop waits or runs: long jobs check it to end early
         self.stop_requested = threading.Event()
 
@@ -67,8 +68,9 @@ class Scheduler:
         received: Callable[[int], None] | None = None,
     ) -> None:
         """Queue a command; `done` is always called exactly once, from any thread. For an
-        emergency stop, `received(new generation)` is called before anything else is answered."""
-        cancelled: list[Job] = []
+        emergency stop, `received(new generation)` is called at once; the commands it cancels
+        are answered by the bus thread once the stop has gone out (finish_cancelled), so
+        thousands of replies delay neither the receipt nor the stop."""
         refusal: str | None = None
         stop_generation = 0
         with self.cond:
@@ -76,7 +78,7 @@ class Scheduler:
                 self.stop_requested.set()
                 self.generation += 1
                 for queue in self._queues.values():
-                    cancelled.extend(queue)
+                    self._cancelled.extend(queue)
                 self._queues.clear()
                 if self._stop is not None:  # one stop already waiting: this page waits on it too
                     self._stop.extra.append(done)
@@ -92,11 +94,16 @@ class Scheduler:
                 self._queues.setdefault(owner, deque()).append(Job(command, done, owner, self.generation))
                 self.cond.notify_all()
         if received is not None and isinstance(command, c.EmergencyStop):
-            received(stop_generation)  # the receipt first, then the thousands of "cancelled"
-        for job in cancelled:
-            job.finish(None, CANCELLED)
+            received(stop_generation)
         if refusal is not None:
             done(None, refusal)
+
+    def finish_cancelled(self) -> None:
+        """Answer "cancelled" to every command an emergency stop dropped (after the stop ran)."""
+        with self.cond:
+            cancelled, self._cancelled = self._cancelled, []
+        for job in cancelled:
+            job.finish(None, CANCELLED)
 
     def take(self) -> Job | None:
         """The next job (the stop first, then one page after another), or None. Call with `cond` held."""

@@ -207,7 +207,7 @@ class BusWorker:
                 while not self._stopping and not self.jobs and not self.watched and self._caught_up():
                     cond.wait()
                 if self._stopping:
-                    return
+                    break
                 job = None if not self._caught_up() else self.jobs.take()
                 if job is None and self._caught_up():
                     delay = DOWN_RECHECK if self._port_down() else next_poll - time.monotonic()
@@ -221,6 +221,7 @@ class BusWorker:
             else:
                 next_poll = time.monotonic() + 1.0 / POLL_HZ
                 self._poll()
+        self.jobs.finish_cancelled()  # every `done` is called exactly once, also on the way out
 
     def _carry_out(self, job: Job) -> None:
         command = job.command
@@ -241,6 +242,8 @@ class BusWorker:
             except Exception as problem:
                 error = f"internal error: {type(problem).__name__}: {problem}"
         job.finish(result, error)
+        if isinstance(command, c.EmergencyStop):
+            self.jobs.finish_cancelled()
 
     def _poll(self) -> None:
         for device_id in self.watched:
