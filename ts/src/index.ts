@@ -6,6 +6,7 @@
 export * from "./bus/client.js";
 export * from "./bus/errors.js";
 export * from "./bus/port.js";
+export * from "./bus/reconnect.js";
 export * from "./bus/timing.js";
 export * from "./codec.js";
 export * from "./errors.js";

@@ -130,3 +130,9 @@ class IdInUse(NurimcError):
 
 class ConfirmationRequired(NurimcError):
     """A destructive operation was asked for without explicit confirmation."""
+
+
+class PortLost(PortError):
+    """The port went away (adapter unplugged or reset, EIO, broken pipe) and is being reopened in
+    the background (Bus.open(..., reconnect=True)); the call was not carried out. Calls fail with
+    this at once until the port is back (docs/library.md, "Reconnect")."""

@@ -196,7 +196,7 @@ export class Bus {
     this.unsubscribe = [
       port.onData((chunk) => this.received(chunk)),
       port.onError((error) => {
-        this.closed = error;
+        if (error.name !== "PortLost") this.closed = error; // a reconnecting port (reconnect.ts) comes back
         this.pending?.fail(portFailure(error)); // the call waiting for an answer fails now, not at its timeout
       }),
     ];

@@ -169,12 +169,14 @@ class FramePrinter:
         pass
 
 
-def open_bus(o: Options) -> Bus:
+def open_bus(o: Options, reconnect: bool = False) -> Bus:
+    """The bus of --port; reconnect: reopen it when it goes away (long-running tools: outage.py)."""
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     rs485 = RS485(rts_level_for_tx=not o.rs485_invert) if o.rs485 else None
-    bus = Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None, rs485=rs485)
+    tracer = FramePrinter() if o.verbose else None
+    bus = Bus.open(port, baudrate=o.baud, tracer=tracer, rs485=rs485, reconnect=reconnect)
     warning = getattr(bus.transport, "warning", None)
     if warning:
         err.print(Text.assemble(("warning:", "yellow"), " ", one_line(warning)), soft_wrap=True)

@@ -53,7 +53,7 @@ def dashboard(
         sim_bus, bus = simulated_bus(tap)
         port_name = "sim://"
     else:
-        bus = Bus(open_bus(o).transport, tracer=tap)
+        bus = Bus(open_bus(o, reconnect=True).transport, tracer=tap)  # reopened when lost (docs/dashboard.md)
         port_name = o.port or os.environ.get("NURIMC_PORT", "")
 
     family = socket.AF_INET6 if ":" in address.host else socket.AF_INET

@@ -9,8 +9,9 @@ from typing import Any
 
 import typer
 
-from ..errors import InputError
+from ..errors import InputError, PortLost
 from ..inputs import field_value, integer, json_document, number, show
+from ..outage import OutageGuard, stderr_line
 from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, decode, make
 from .common import STOP, Number, emit, fail, open_bus, options, table
 
@@ -129,10 +130,16 @@ def sniff(
     o = options(ctx)
     parser, seen = StreamParser(), []
     start = time.monotonic()
-    with open_bus(o) as bus:
+    with open_bus(o, reconnect=True) as bus:
+        outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
         try:
             while not duration or time.monotonic() - start < duration:
-                data = bus.transport.read(64, 0.05)
+                try:
+                    data = bus.transport.read(64, 0.05)
+                except PortLost:  # a frame cut in half by the loss is no frame
+                    parser = StreamParser()
+                    outage.wait_up(0.5)
+                    continue
                 for m in parser.feed(data) if data else parser.finish():
                     t = time.monotonic() - start
                     seen.append({"t": round(t, 6), **_describe(m)})
@@ -140,6 +147,7 @@ def sniff(
                         print(f"{t:10.4f}  id={m.id:<3} {m.name:24s} {m.physical()}", flush=True)
         except STOP:
             pass  # Ctrl+C or SIGTERM: the normal end of listening
+        outage.close()
     emit(o, {"frames": seen, "dropped_bytes": parser.stats.dropped_bytes})
 
 

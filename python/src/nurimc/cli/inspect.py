@@ -18,6 +18,7 @@ from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
 from ..journal import RestoreJournal, incomplete_message
 from ..motor import MotorState
+from ..outage import OutageGuard, stderr_line
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
 from .common import STOP, Number, check_baud, emit, err, fail, one_id, open_bus, options, parse_ids, table
@@ -182,8 +183,9 @@ def watch(
     if not o.ids:
         fail("watch: give the motors to watch with --id 1,2,3")
     readings: list[dict[str, Any]] = []
-    with open_bus(o) as bus:
+    with open_bus(o, reconnect=True) as bus:
         motors = [bus.motor(i, o.product) for i in o.ids]
+        outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each; every reading is fresh anyway
 
         def render() -> Any:
             rows = table(None, "ID", "position °", "speed RPM", "current A", "position sign")
@@ -209,6 +211,7 @@ def watch(
                     live.update(render(), refresh=True)
         except STOP:
             pass  # Ctrl+C or SIGTERM: the normal end of watching
+        outage.close()
     emit(o, readings)
 
 

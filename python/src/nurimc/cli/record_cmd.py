@@ -8,7 +8,8 @@ from pathlib import Path
 
 import typer
 
-from ..errors import NurimcError
+from ..errors import NurimcError, PortLost
+from ..outage import OutageGuard
 from .common import EXIT_DEVICE, Number, fail, options, out
 from .ros2_cmd import RATE, SECONDS
 
@@ -80,9 +81,13 @@ def record(
         def loop() -> None:
             period = 1.0 / rate if rate else 0.0
             next_read = time.monotonic()
+            outage = OutageGuard(bus.transport, lambda text: out.print(text, soft_wrap=True))
             while not stop.is_set():
                 try:
                     bridge.readings(bus.run(read_states(procedures)))
+                except PortLost:  # said once; recording resumes with fresh readings when it is back
+                    outage.wait_up(0.5)
+                    continue
                 except NurimcError as error:  # the port itself failed: end the recording, then say so
                     port_error.append(str(error))
                     stop.set()

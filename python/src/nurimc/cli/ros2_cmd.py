@@ -39,14 +39,14 @@ def need_extra() -> None:
         fail(EXTRA_HINT)
 
 
-def open_traced_bus(o: Options, recorder: Any | None) -> Bus:
+def open_traced_bus(o: Options, recorder: Any | None, reconnect: bool = True) -> Bus:
     """Like common.open_bus, with an MCAP recorder (and -v's printer) seeing every byte."""
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     tracers = [t for t in (recorder, FramePrinter() if o.verbose else None) if t is not None]
     tracer = tracers[0] if len(tracers) == 1 else _Tee(tracers) if tracers else None
-    bus = Bus.open(port, baudrate=o.baud, tracer=tracer)
+    bus = Bus.open(port, baudrate=o.baud, tracer=tracer, reconnect=reconnect)  # reopened when lost: outage.py
     warning = getattr(bus.transport, "warning", None)
     if warning:
         err.print(f"[yellow]warning:[/] {warning}", soft_wrap=True)

@@ -95,7 +95,7 @@ class AsyncBus:
     @classmethod
     def open(cls, url: str, baudrate: int = 9600, **options: Any) -> AsyncBus:
         latency, rs485 = options.pop("latency", None), options.pop("rs485", None)
-        return cls(open_transport(url, baudrate, latency, rs485), **options)
+        return cls(open_transport(url, baudrate, latency, rs485, options.pop("reconnect", False)), **options)
 
     @property
     def listeners(self) -> list[FrameRecorder]:

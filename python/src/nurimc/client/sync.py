@@ -87,9 +87,10 @@ class Bus:
         """Open a device path or port URL (socket://, rfc2217://, loop://, sim://...).
 
         Options: latency (s), rs485 (True, 'kernel', 'rts' or a nurimc.transport.RS485: direction
-        control for adapters that do not switch themselves), and the constructor's."""
+        control for adapters that do not switch themselves), reconnect (True: reopen the port when
+        it goes away; calls fail fast with PortLost meanwhile: docs/library.md), and the constructor's."""
         latency, rs485 = options.pop("latency", None), options.pop("rs485", None)
-        return cls(open_transport(url, baudrate, latency, rs485), **options)
+        return cls(open_transport(url, baudrate, latency, rs485, options.pop("reconnect", False)), **options)
 
     @property
     def listeners(self) -> list[FrameRecorder]:

@@ -47,6 +47,11 @@ MAX_NESTING = 32  # deeper JSON is refused before it is decoded
 MESSAGE_LIMIT = 1 << 20  # 1 MiB
 TRANSPORT_LIMIT = 16 << 20  # 16 MiB: uvicorn's ws_max_size, websockets' max_size (whole message, all fragments)
 LIVE_EVENTS = {"samples", "frames", "tick"}
+# Fairness under a flood (docs/dashboard.md, "Port lost and floods"): every message read gives the
+# other connections a turn; a page that does not read its replies stops being read (REPLY_BACKLOG)
+# and, after STALLED_SECONDS of that, is disconnected.
+#: a page that takes none of its replies for this long is disconnected (1008), not waited for
+STALLED_SECONDS = 30.0
 POLICY_VIOLATION = 1008
 
 
@@ -125,10 +130,17 @@ class Outbox:
             await self._ready.wait()
         return self.must.popleft() if self.must else self.live.popleft()
 
-    async def room(self) -> None:
-        """Wait while the page has not taken its earlier replies (it stops being read meanwhile)."""
+    async def room(self) -> bool:
+        """Wait while the page has not taken its earlier replies (it stops being read meanwhile);
+        False if it took none for STALLED_SECONDS (the caller drops the connection)."""
+        if len(self.must) <= REPLY_BACKLOG:
+            return True
+        since = time.monotonic()
         while len(self.must) > REPLY_BACKLOG:
-            await asyncio.sleep(0.005)
+            if time.monotonic() - since > STALLED_SECONDS:
+                return False
+            await asyncio.sleep(0.02)
+        return True
 
 
 class Hub:
@@ -260,6 +272,7 @@ def create_app(config: DashboardConfig) -> Starlette:
                 "motors": w.motor_list(),
                 "generation": w.generation,
                 "reads": w.reads,
+                "port_state": w.port_state(),
                 "settings": c.settings_catalogue(),
             }
         )
@@ -300,6 +313,7 @@ def create_app(config: DashboardConfig) -> Starlette:
             "sim": config.sim,
             "baudrate": w.bus.baudrate,
             "port": w.port,
+            "port_state": w.port_state(),  # up, stop_pending, message while lost (docs/dashboard.md, "Port lost")
         }
 
     routes = [
@@ -358,7 +372,10 @@ async def _receive_loop(
 ) -> None:
     """Every message gets exactly one reply; a bad one gets an error reply and the connection stays open."""
     while True:
-        await box.room()
+        if not await box.room():
+            await websocket.close(code=POLICY_VIOLATION, reason=f"no replies taken for {STALLED_SECONDS:g} s")
+            raise WebSocketDisconnect(POLICY_VIOLATION)
+        await asyncio.sleep(0)  # a message already buffered would not yield: give the other connections a turn
         event = await websocket.receive()
         if event["type"] == "websocket.disconnect":
             raise WebSocketDisconnect(event.get("code", 1000))
@@ -399,6 +416,7 @@ async def _receive_loop(
             text = _reply(req, result, error)
             loop.call_soon_threadsafe(box.put, text)
 
-        worker.submit(command, done, owner=box, generation=generation)
-        if isinstance(command, c.EmergencyStop):  # received: the page stops waiting for a server that is gone
-            box.put_first(json.dumps({"type": "estop_received", "req": req, "generation": worker.generation}))
+        def received(stop_generation: int, req: Any = req) -> None:  # the page stops waiting for a server that is gone
+            box.put_first(json.dumps({"type": "estop_received", "req": req, "generation": stop_generation}))
+
+        worker.submit(command, done, owner=box, generation=generation, received=received)

@@ -1,14 +1,15 @@
 """The one thread that talks to the bus: commands from the pages, and polling between them.
 
 RS485 is half-duplex and the Bus runs one procedure at a time, so everything goes through this
-thread's queue. Between commands it reads the watched motors' states as fast as the wire allows
-(capped at POLL_HZ).
+thread. The scheduler (scheduler.py) decides which page's command is next (the emergency stop
+first, then the pages in turn); this module carries each out (the handlers) and, between
+commands, reads the watched motors' states as fast as the wire allows (capped at POLL_HZ).
 
-The emergency stop wins over everything sent before it: submitting it bumps the generation,
-answers every queued command of every page with "cancelled" without touching the bus,
-interrupts discovery and step runs, and goes first. A command that names an older generation
-(a page that had not yet heard of the stop) is refused, so nothing from before the stop can
-move a motor after it.
+Port loss (a bus opened with reconnect, docs/dashboard.md "Port lost"): polling pauses, every
+command fails at once with the reason, an emergency stop is latched ("stop pending: port
+lost") and its broadcast registered to be the first frame when the port returns; on the return
+the stop is carried out and read back, then every known motor's state is read again before any
+other command goes out. Nothing asked during the outage is replayed.
 """
 
 from __future__ import annotations
@@ -16,41 +17,38 @@ from __future__ import annotations
 import contextlib
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from .. import config
 from ..client.sync import Bus
 from ..discovery import Found, Progress, discover
-from ..errors import ControllerBusy, NurimcError
+from ..errors import ControllerBusy, NurimcError, PortError, PortLost
 from ..motor import Motor, MotorState
 from ..protocol import BROADCAST_ID, FieldRangeError, ResetPosition, SetControl
 from ..protocol.host import PROFILES
+from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
+from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
 
 POLL_HZ = 200.0  # at most this many reads of each watched motor per second
 ESTOP_VERIFY_SECONDS = 2.0  # the controllers answer again once their EEPROM write is done (50-300 ms)
 ERROR_REPEAT = 1.0  # s between two reports of the same motor's read failure
-MAX_PENDING = 256  # commands one page may have waiting for the bus; more get "busy, try again"
-CANCELLED = "cancelled by the emergency stop (it was sent before the stop; nothing was done)"
+DOWN_RECHECK = 1.0  # s: while the port is down the thread sleeps this long between looks (no busy loop)
+STOP_PENDING = "stop pending: port lost"
+REOPEN_WAIT = 3.0  # s a reopen asked from the page waits for the port before answering
 
-Done = Callable[[Any, str | None], None]  # (result, error message)
+__all__ = ["CANCELLED", "MAX_PENDING", "BusWorker", "Done", "KnownMotor"]
 
 
 class Interrupted(Exception):
     """The emergency stop cut a long command short."""
 
 
-@dataclass
-class Job:
-    command: c.Command
-    done: Done
-    owner: object  # the page (connection) that sent it, for its pending count
-    generation: int
-    extra: list[Done] = field(default_factory=list)  # further pages waiting on the same emergency stop
+class StopPending(NurimcError):
+    """An emergency stop asked while the port is lost: latched, carried out when it returns."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,16 +69,12 @@ class BusWorker:
         self.port = port  # what the bus was opened on ("sim://" for the simulator)
         self.tracer = tracer
         self.product = product
-        self.publish = publish  # called from this thread: progress, errors, estop notices
+        self.publish = publish  # called from any thread: progress, errors, estop and port notices
         self.motors: dict[int, KnownMotor] = {}  # kept for every page, new tabs and reloads
         self.watched: tuple[int, ...] = ()
-        self.generation = 0  # bumped by every emergency stop
+        self.jobs = Scheduler()
         self._handles: dict[int, Motor] = {}
-        self._jobs: deque[Job] = deque()
-        self._pending: dict[object, int] = {}
-        self._wake = threading.Condition()
         self._stopping = False
-        self._estop = threading.Event()
         self._samples: list[list[float]] = []
         self._samples_lock = threading.Lock()
         self._last_error: dict[int, float] = {}
@@ -88,7 +82,16 @@ class BusWorker:
         self.busy_window = PROFILES[product].busy_window if product in PROFILES else 0.3
         self.clock_origin = time.monotonic()
         self.reads = 0
+        #: an emergency stop asked while the port was lost, not yet carried out and read back
+        self.stop_pending = False
+        self._returns_seen = 0  # the transport's count of returns this thread has caught up with
+        self._watch_port()
         self._thread = threading.Thread(target=self._loop, name="nurimc-dashboard-bus", daemon=True)
+
+    @property
+    def generation(self) -> int:
+        """Bumped by every emergency stop."""
+        return self.jobs.generation
 
     @property
     def known(self) -> dict[int, int]:
@@ -98,65 +101,45 @@ class BusWorker:
     def motor_list(self) -> list[dict[str, Any]]:
         return [m.as_dict() for m in sorted(self.motors.values(), key=lambda m: m.id)]
 
+    def port_state(self) -> dict[str, Any]:
+        """The port as the pages show it (hello, /api/info, `port` events)."""
+        transport = reconnecting(self.bus.transport)
+        up = transport is None or transport.up
+        state: dict[str, Any] = {"port": self.port, "up": up, "reconnect": transport is not None}
+        state["stop_pending"] = self.stop_pending
+        if transport is not None and not up:
+            state["message"] = transport.lost_text()
+        return state
+
     # -- from other threads ----------------------------------------------------------
     def start(self) -> None:
         self._thread.start()
 
     def stop(self) -> None:
-        with self._wake:
+        with self.jobs.cond:
             self._stopping = True
-            self._wake.notify()
+            self.jobs.cond.notify_all()
         self._thread.join(timeout=5)
+        transport = reconnecting(self.bus.transport)
+        if transport is not None:
+            transport.unwatch(self._port_event)
+        if self.stop_pending:  # the console ends with the stop never carried out: say so
+            self.publish({"type": "port", "state": "closed", **self.port_state()})
 
-    def submit(self, command: c.Command, done: Done, owner: object = None, generation: int | None = None) -> None:
-        """Queue a command; `done` is always called exactly once, from any thread."""
-        cancelled: list[Done] = []
-        refusal: str | None = None
-        with self._wake:
-            if isinstance(command, c.EmergencyStop):
-                self._estop.set()
-                self.generation += 1
-                queued = next((j for j in self._jobs if isinstance(j.command, c.EmergencyStop)), None)
-                for job in self._jobs:
-                    if job is not queued:
-                        cancelled.append(job.done)
-                        self._finished(job.owner)
-                self._jobs.clear()
-                if queued is not None:  # one stop already waiting: this page waits on it too
-                    queued.extra.append(done)
-                    self._jobs.append(queued)
-                else:
-                    self._jobs.append(Job(command, done, owner, self.generation))
-                self._wake.notify()
-            elif generation is not None and generation < self.generation:
-                refusal = f"refused: sent before emergency stop #{self.generation}; press the button again"
-            elif self._pending.get(owner, 0) >= MAX_PENDING:
-                refusal = f"busy: {MAX_PENDING} commands from this page are waiting for the bus; try again shortly"
-            else:
-                self._pending[owner] = self._pending.get(owner, 0) + 1
-                self._jobs.append(Job(command, done, owner, self.generation))
-                self._wake.notify()
-        for cancel in cancelled:
-            cancel(None, CANCELLED)
-        if refusal is not None:
-            done(None, refusal)
+    def submit(
+        self,
+        command: c.Command,
+        done: Done,
+        owner: object = None,
+        generation: int | None = None,
+        received: Callable[[int], None] | None = None,
+    ) -> None:
+        """Queue a command; `done` is always called exactly once, from any thread (scheduler.py)."""
+        self.jobs.submit(command, done, owner, generation, received)
 
     def forget(self, owner: object) -> None:
         """A page went away: its queued commands are dropped, not carried out for no one."""
-        with self._wake:
-            gone = [j for j in self._jobs if j.owner is owner and not isinstance(j.command, c.EmergencyStop)]
-            gone_ids = {id(j) for j in gone}
-            self._jobs = deque(j for j in self._jobs if id(j) not in gone_ids)
-            self._pending.pop(owner, None)
-        for job in gone:
-            job.done(None, "dropped: the page closed")
-
-    def _finished(self, owner: object) -> None:  # with self._wake held
-        left = self._pending.get(owner, 0) - 1
-        if left > 0:
-            self._pending[owner] = left
-        else:
-            self._pending.pop(owner, None)
+        self.jobs.forget(owner)
 
     def take_samples(self) -> list[list[float]]:
         """[id, t, position, speed, current, device_position] rows read since the last call."""
@@ -164,35 +147,88 @@ class BusWorker:
             out, self._samples = self._samples, []
             return out
 
+    # -- the port ----------------------------------------------------------------------
+    def _watch_port(self) -> None:
+        transport = reconnecting(self.bus.transport)
+        if transport is not None:
+            transport.watch(self._port_event)
+            self._returns_seen = transport.returns
+
+    def _port_event(self, event: PortEvent) -> None:
+        """From the thread that saw the loss or the return: tell the pages, wake the bus thread."""
+        message: dict[str, Any] = {"type": "port", "state": event.kind, "text": event.text}
+        if event.down_for is not None:
+            message["down_for"] = round(event.down_for, 3)
+        self.publish({**self.port_state(), **message})
+        with self.jobs.cond:
+            self.jobs.cond.notify_all()
+
+    def _port_down(self) -> bool:
+        transport = reconnecting(self.bus.transport)
+        return transport is not None and not transport.up
+
+    def _caught_up(self) -> bool:
+        transport = reconnecting(self.bus.transport)
+        return transport is None or not transport.up or transport.returns == self._returns_seen
+
+    def _after_return(self) -> None:
+        """The port is back: the latched stop first (its broadcast already went out as the first
+        frame), then every known motor's state read again; only then other commands."""
+        transport = reconnecting(self.bus.transport)
+        if transport is None:
+            return
+        self._returns_seen = transport.returns
+        self.bus.core.control_released.clear()  # what was known before the outage may no longer hold
+        result: dict[str, Any] = {"type": "port", "state": "resumed", **self.port_state()}
+        if self.stop_pending:
+            try:
+                result["estop"] = self._stop_now(latched=True)
+            except PortLost:
+                return  # gone again: the latch stays, the next return tries again
+        states: dict[str, Any] = {}
+        for device_id in sorted(self.motors):
+            try:
+                state = self._sample(device_id)
+                states[str(device_id)] = {"position": state.position, "speed": state.speed, "current": state.current}
+            except PortLost:
+                return
+            except NurimcError as error:
+                states[str(device_id)] = {"error": str(error)}
+        result["states"] = states
+        result.update(self.port_state())
+        self.publish(result)
+
     # -- the thread ------------------------------------------------------------------
     def _loop(self) -> None:
         next_poll = 0.0
+        cond = self.jobs.cond
         while True:
-            with self._wake:
-                while not self._stopping and not self._jobs and not self.watched:
-                    self._wake.wait()
+            with cond:
+                while not self._stopping and not self.jobs and not self.watched and self._caught_up():
+                    cond.wait()
                 if self._stopping:
-                    return
-                job = self._jobs.popleft() if self._jobs else None
-                if job is not None and not isinstance(job.command, c.EmergencyStop):
-                    self._finished(job.owner)
-                if job is None:
-                    delay = next_poll - time.monotonic()
+                    break
+                job = None if not self._caught_up() else self.jobs.take()
+                if job is None and self._caught_up():
+                    delay = DOWN_RECHECK if self._port_down() else next_poll - time.monotonic()
                     if delay > 0:
-                        self._wake.wait(delay)
+                        cond.wait(delay)
                         continue
-            if job is not None:
+            if not self._caught_up():
+                self._after_return()
+            elif job is not None:
                 self._carry_out(job)
             else:
                 next_poll = time.monotonic() + 1.0 / POLL_HZ
                 self._poll()
+        self.jobs.finish_cancelled()  # every `done` is called exactly once, also on the way out
 
     def _carry_out(self, job: Job) -> None:
         command = job.command
         result: Any = None
         error: str | None = None
         if isinstance(command, c.EmergencyStop):
-            self._estop.clear()
+            self.jobs.stop_requested.clear()
         elif job.generation < self.generation:  # a stop came in after this was queued
             error = CANCELLED
         if error is None:
@@ -205,13 +241,16 @@ class BusWorker:
                 error = str(text)
             except Exception as problem:
                 error = f"internal error: {type(problem).__name__}: {problem}"
-        for done in (job.done, *job.extra):
-            done(result, error)
+        job.finish(result, error)
+        if isinstance(command, c.EmergencyStop):
+            self.jobs.finish_cancelled()
 
     def _poll(self) -> None:
         for device_id in self.watched:
             try:
                 self._sample(device_id)
+            except PortLost:  # said once, as a `port` event; polling pauses until it is back
+                return
             except NurimcError as error:
                 now = time.monotonic()
                 busy_until, why = self._busy_until.get(device_id, (0.0, ""))
@@ -248,7 +287,7 @@ class BusWorker:
         self._busy_until[device_id] = (time.monotonic() + self.busy_window + 0.2, why)
 
     def _check_estop(self) -> None:
-        if self._estop.is_set():
+        if self.jobs.stop_requested.is_set():
             raise Interrupted
 
     # -- commands --------------------------------------------------------------------
@@ -453,19 +492,47 @@ class BusWorker:
         return names
 
     def _open_bus(self, port: str, rate: int) -> dict[str, Any]:
-        if port == self.port:
+        """Switch the port, or reopen the same one (a lost adapter, at once rather than at the next
+        retry). The new bus reconnects by itself too. A latched stop is carried out on it first."""
+        if self.port.startswith("sim"):
+            if port == self.port:
+                self.bus.baudrate = rate
+                return {"port": port, "baudrate": rate}
+            raise ValueError("this console runs on the simulated bus (--sim); restart it with --port for a real port")
+        if port == self.port and not self._port_down():
             self.bus.baudrate = rate
             return {"port": port, "baudrate": rate}
-        if self.port.startswith("sim"):
-            raise ValueError("this console runs on the simulated bus (--sim); restart it with --port for a real port")
-        new = Bus.open(port, baudrate=rate, tracer=self.tracer)  # PortError says what is wrong
-        old, self.bus, self.port = self.bus, new, port
+        if port == self.port:  # lost: try the same path now, the reconnect carries on if it fails
+            return self._reopen_now(port, rate)
+        old = self.bus
+        new = Bus.open(port, baudrate=rate, tracer=self.tracer, reconnect=True)  # PortError says what is wrong
+        old_transport = reconnecting(old.transport)
+        if old_transport is not None:
+            old_transport.unwatch(self._port_event)
+        self.bus, self.port = new, port
         old.close()
-        self.motors.clear()
         self._handles.clear()
+        self._watch_port()
+        result: dict[str, Any] = {"port": port, "baudrate": rate}
+        if self.stop_pending:  # asked for the motors of the lost port: on this one, as far as it reaches
+            result["estop"] = self._stop_now(latched=True)
+        self.motors.clear()
         self.watched = ()
         self.publish({"type": "motors", "motors": [], "generation": self.generation})
-        return {"port": port, "baudrate": rate}
+        self.publish({"type": "port", "state": "opened", **self.port_state()})
+        return result
+
+    def _reopen_now(self, port: str, rate: int) -> dict[str, Any]:
+        transport = reconnecting(self.bus.transport)
+        assert transport is not None
+        transport.baudrate = rate
+        transport.retry_now()
+        if not transport.wait_up(REOPEN_WAIT):
+            raise PortError(
+                f"cannot reopen {port}: {transport.last_attempt_error or 'not back yet'}; "
+                "still retrying in the background (plug the adapter back in, or open another port)"
+            )
+        return {"port": port, "baudrate": rate, "reopened": True}  # the return is handled next: stop, re-read
 
     def _forget_watch(self, old: int, new: int | None) -> None:
         ids = [i for i in self.watched if i != old]
@@ -474,12 +541,32 @@ class BusWorker:
         self.watched = tuple(sorted(ids))
 
     def _emergency_stop(self) -> dict[str, Any]:
+        """Control off everywhere, read back; with the port lost: latched until it returns."""
+        try:
+            return self._stop_now()
+        except PortLost as lost:
+            self._latch_stop(lost)
+            raise StopPending(
+                f"{STOP_PENDING}: {lost}. The stop is latched: it is the first frame sent when the port "
+                "returns, then read back; if the motors must stop now, cut their power"
+            ) from lost
+
+    def _latch_stop(self, lost: PortLost) -> None:
+        transport = reconnecting(self.bus.transport)
+        self.stop_pending = True
+        if transport is not None:
+            transport.on_return("estop", SetControl(BROADCAST_ID, 1).encode())
+        self.publish({"type": "estop_pending", "message": f"{STOP_PENDING}: {lost}", "generation": self.generation})
+
+    def _stop_now(self, latched: bool = False) -> dict[str, Any]:
         """Control off, broadcast at every rate a motor was found at, then each motor told and checked.
 
         A controller busy writing its EEPROM (after a hold or a setting, 50-300 ms) ignores frames,
         so a broadcast can be lost on it: each motor is read back and told again until it reads
         "off" or ESTOP_VERIFY_SECONDS pass (then it is reported as not confirmed).
         """
+        if self._port_down():
+            raise PortLost(reconnecting(self.bus.transport).lost_text())  # type: ignore[union-attr]
         rates = sorted({*self.known.values(), self.bus.baudrate})
         for rate in rates:
             self.bus.baudrate = rate
@@ -502,12 +589,19 @@ class BusWorker:
             if not unconfirmed or time.monotonic() >= deadline:
                 break
             time.sleep(0.05)
-        result = {"rates": rates, "control": controls, "generation": self.generation}
+        if latched:
+            self.stop_pending = False
+            transport = reconnecting(self.bus.transport)
+            if transport is not None:
+                transport.on_return("estop", None)
+        result = {"rates": rates, "control": controls, "generation": self.generation, "latched": latched}
         self.publish({"type": "estop", **result})
         return result
 
     def _read_control(self, device_id: int) -> str:
         try:
             return str(self.motor(device_id).get("control"))
+        except PortLost:
+            raise
         except NurimcError as error:
             return f"unknown: {error}"

@@ -16,9 +16,10 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from ..client.sync import Bus
-from ..errors import NurimcError
+from ..errors import NurimcError, PortLost
 from ..group import read_states, read_states_broadcast, stagger
 from ..motor import Motor, MotorState
+from ..outage import OutageGuard
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
@@ -69,6 +70,7 @@ class BridgeNode:
         self.sink = sink
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
         self._logged: dict[str, float] = {}
+        self.outage = OutageGuard(bus.transport, self._log)  # port lost and back (docs/ros2.md, "Port lost")
         self.joint_states_topic = topic(namespace, "joint_states")
         self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
         self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
@@ -182,6 +184,8 @@ class BridgeNode:
                         self._wake.wait(wake_at - now)
                         continue
             now = time.monotonic()
+            if self.outage.returned():  # before anything else: stops owed, fresh states
+                self._resume()
             if event is not None:
                 self._handle(*event, now)
                 continue
@@ -193,6 +197,19 @@ class BridgeNode:
                 self.publish_diagnostics()
                 next_diagnostics = now + DIAGNOSTICS_PERIOD
         self._carry_out(self.bridge.shutdown())
+        self.outage.ending()
+        if self.outage.not_stopped and self.outage.down:
+            ids = ", ".join(map(str, sorted(self.outage.not_stopped)))
+            self.failure = f"the port is lost: ID {ids} could not be stopped and may still be turning"
+
+    def _resume(self) -> None:
+        """The port is back: control off already went first to each motor whose stop was owed
+        (it stays released: holding would turn control on, an EEPROM write that keeps the
+        controller deaf for up to 300 ms). What was known of control before is forgotten, so the
+        next motion reads it first; every motor is read before anything else is sent."""
+        self.outage.take_stops()
+        self.bus.core.control_released.clear()
+        self.read_and_publish()
 
     def _handle(self, kind: str, value: Any, now: float) -> None:
         try:
@@ -213,6 +230,12 @@ class BridgeNode:
         for action in actions:
             try:
                 self._perform(action)
+            except PortLost as error:  # dropped, never replayed; a stop is owed on the return
+                if isinstance(action, Hold | ReleaseAll):
+                    ids = action.ids if isinstance(action, ReleaseAll) else (action.id,)
+                    self.outage.stop_failed(ids, error, ending=self._stopping)
+                else:
+                    self._report("port", f"dropped while the port is lost (not replayed): {action}")
             except (NurimcError, FieldRangeError, ValueError) as error:
                 self._report(f"action{getattr(action, 'id', '')}", f"error: {action}: {error}")
 
@@ -266,7 +289,7 @@ class BridgeNode:
             results = {device_id: error for device_id in self.motors}
         self.bridge.readings(results)
         for joint in self.bridge.joints:
-            if joint.error:
+            if joint.error and not self.outage.down:  # a lost port is said once, by the outage guard
                 self._report(f"read{joint.id}", f"ID {joint.id}: {joint.error}")
         message = self.bridge.joint_state(time.time_ns())
         if message is not None:

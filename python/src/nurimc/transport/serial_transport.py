@@ -9,12 +9,13 @@ import logging
 import os
 import select
 import time
-from typing import Any
+from typing import Any, Literal, overload
 
 import serial
 
 from ..errors import PortError, RateRefused
 from .backends import find_backend, known_schemes, scheme_of
+from .base import Transport
 from .latency import estimate_latency
 from .rs485 import RS485, RtsDirection, enable_rs485, rs485_options
 
@@ -143,11 +144,36 @@ class SerialTransport:
         self.port.close()
 
 
+@overload
 def open_transport(
-    url: str, baudrate: int = 9600, latency: float | None = None, rs485: bool | str | RS485 | None = None
-) -> SerialTransport:
+    url: str,
+    baudrate: int = ...,
+    latency: float | None = ...,
+    rs485: bool | str | RS485 | None = ...,
+    reconnect: Literal[False] = ...,
+) -> SerialTransport: ...
+
+
+@overload
+def open_transport(
+    url: str, baudrate: int, latency: float | None, rs485: bool | str | RS485 | None, reconnect: bool
+) -> Transport: ...
+
+
+def open_transport(
+    url: str,
+    baudrate: int = 9600,
+    latency: float | None = None,
+    rs485: bool | str | RS485 | None = None,
+    reconnect: bool = False,
+) -> Transport:
     """Open a device path or port URL. rs485: RS485 direction control (see rs485.py), for
-    adapters that do not switch between sending and receiving themselves."""
+    adapters that do not switch between sending and receiving themselves. reconnect: reopen the
+    port when it goes away (reconnect.py; calls fail fast with PortLost meanwhile)."""
+    if reconnect:
+        from .reconnect import ReconnectingTransport
+
+        return ReconnectingTransport(url, lambda path, rate: open_transport(path, rate, latency, rs485), baudrate)
     direction_options = rs485_options(rs485)
     scheme = scheme_of(url)
     if direction_options is not None and scheme is not None:

@@ -1,0 +1,98 @@
+"""`watch` and `sniff` across a port outage: real processes on a port the test cuts and restores."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from nurimc import Bus
+from nurimc.sim import SimBus
+from nurimc.sim.faultproxy import FaultProxy
+
+from .outage import BAUD, cuttable_bus
+
+NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"
+CUT = 0.6  # s
+
+
+def start(*argv: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [NURIMC, *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "NO_COLOR": "1"}
+    )
+
+
+def wait_until(test: object, seconds: float) -> None:
+    deadline = time.monotonic() + seconds
+    while not test():  # type: ignore[operator]
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+
+
+def test_watch_says_the_loss_and_the_return_once_and_reads_again(tmp_path: Path) -> None:
+    with cuttable_bus("pty", tmp_path) as (_, proxy):
+        options = ("--port", proxy.url, "--baud", str(BAUD), "--id", "1", "--json")
+        watch = start(*options, "watch", "--interval", "0.05", "--count", "70")
+        wait_until(lambda: proxy.from_host, 10)
+        proxy.cut()
+        time.sleep(CUT)
+        proxy.restore()
+        out, err = watch.communicate(timeout=30)
+        assert watch.returncode == 0, err
+        assert err.count(" lost (") == 1 and err.count("back after") == 1, err
+        assert "Traceback" not in err
+        after = [data for cuts, data in proxy.from_host if cuts == 1]
+        assert after, "watch read again after the return"
+        assert len(json.loads(out)) >= 20
+
+
+def test_sniff_listens_again_when_its_port_returns(tmp_path: Path) -> None:
+    sim = SimBus(wire_timing=False)
+    sim.add_controller(id=1, baud=BAUD)
+    host_side = sim.serve_tcp(port=0, baud=BAUD)
+    listening = sim.serve_tcp(port=0, baud=BAUD, monitor=True)  # hears both directions
+    proxy = FaultProxy(listening.address, link=str(tmp_path / "ttySniff")).start()
+    talking = threading.Event()
+    talking.set()
+
+    def host() -> None:
+        with Bus.open(f"socket://127.0.0.1:{host_side.address[1]}", BAUD, latency=0.01) as bus:
+            while talking.is_set():
+                bus.motor(1).read_state()
+                time.sleep(0.02)
+
+    talker = threading.Thread(target=host, daemon=True)
+    talker.start()
+    try:
+        sniff = start("--port", proxy.url, "--baud", str(BAUD), "sniff", "--duration", "4")
+        lines: list[str] = []
+        assert sniff.stdout is not None
+        reader = threading.Thread(target=lambda: lines.extend(sniff.stdout), daemon=True)  # type: ignore[arg-type]
+        reader.start()
+        wait_until(lambda: len(lines) >= 5, 20)  # listening
+        proxy.cut()
+        time.sleep(CUT)
+        proxy.restore()
+        sniff.wait(timeout=30)
+        reader.join(timeout=5)
+        assert sniff.stderr is not None
+        err = sniff.stderr.read()
+    finally:
+        talking.clear()
+        talker.join()
+        proxy.stop()
+        listening.stop()
+        host_side.stop()
+        sim.close()
+    assert sniff.returncode == 0, err
+    assert err.count(" lost (") == 1 and err.count("back after") == 1, err
+    times = [float(line.split()[0]) for line in lines if "id=" in line]
+    gaps = [(a, b) for a, b in itertools.pairwise(times) if b - a >= CUT * 0.8]
+    assert len(gaps) == 1, gaps  # the outage, and frames again after it
+    assert times[-1] - gaps[0][1] > 0.3
