@@ -149,7 +149,8 @@ def lines(spec: dict[str, Any]) -> str:
                 "            ),"
             )
         out += ["        ),", "    ),"]
-    out += ["}", ""]
+    out += ["}", "", "#: the line each product speaks (spec/lines.json product_lines)"]
+    out += [f"PRODUCT_LINES: dict[str, str] = {spec['product_lines']!r}", ""]
     return "\n".join(out)
 
 

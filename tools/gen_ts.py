@@ -152,7 +152,8 @@ def lines(spec: dict[str, Any]) -> str:
                 "      },",
             ]
         out += ["    ],", "  },"]
-    out += ["};", ""]
+    out += ["};", "", "/** The line each product speaks (spec/lines.json product_lines). */"]
+    out += [f"export const PRODUCT_LINES: Readonly<Record<string, string>> = {_js(spec['product_lines'])};", ""]
     return "\n".join(out)
 
 

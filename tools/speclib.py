@@ -51,7 +51,11 @@ def load() -> dict[str, Any]:
     for msg in spec["messages"]:
         msg["mode"] = _int(msg["mode"])
         _resolve(msg, spec["fields"], frame)
-    spec["lines"] = _lines(spec, json.loads(LINES_PATH.read_text()))
+    lines_data = json.loads(LINES_PATH.read_text())
+    spec["lines"] = _lines(spec, lines_data)
+    spec["product_lines"] = {k: v for k, v in lines_data["product_lines"].items() if not k.startswith("$")}
+    if set(spec["product_lines"]) != set(spec["products"]) or not set(spec["product_lines"].values()) <= set(spec["lines"]):
+        raise SystemExit("spec/lines.json product_lines must name every product of spec/protocol.json and a line each")
     return spec
 
 

@@ -1464,3 +1464,6 @@ export const LINES: Readonly<Record<string, LineSpec>> = {
     ],
   },
 };
+
+/** The line each product speaks (spec/lines.json product_lines). */
+export const PRODUCT_LINES: Readonly<Record<string, string>> = {"mc": "mc", "blmc-h": "mc", "rsa": "rsa", "rsavw": "rsavw", "sa": "sa", "sm": "sm", "sm-cs": "sm-cs", "sm-readme": "sm-readme"};

@@ -33,7 +33,7 @@ from .errors import (
     WrongLineError,
 )
 from .frame import build_frame, checksum
-from .lines import ALL_LINES, Line, line, line_of
+from .lines import ALL_LINES, Line, line, line_of, product_line
 from .message import Answer, Command, Message, Request
 from .messages import *  # noqa: F403 - one class per message, generated
 from .messages import BY_MODE, MESSAGES
@@ -100,6 +100,7 @@ __all__ = [
     "checksum",
     "line",
     "line_of",
+    "product_line",
     "decode",
     "encode",
     "make",

@@ -1290,3 +1290,6 @@ LINES: dict[str, LineSpec] = {
         ),
     ),
 }
+
+#: the line each product speaks (spec/lines.json product_lines)
+PRODUCT_LINES: dict[str, str] = {'mc': 'mc', 'blmc-h': 'mc', 'rsa': 'rsa', 'rsavw': 'rsavw', 'sa': 'sa', 'sm': 'sm', 'sm-cs': 'sm-cs', 'sm-readme': 'sm-readme'}

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from ._lines import LINES
+from ._lines import LINES, PRODUCT_LINES
 from .errors import (
     DecodeError,
     MissingFieldError,
@@ -189,3 +189,16 @@ def line(key: str) -> Line:
 def line_of(message: Message | type[Message]) -> Line:
     """The line a message belongs to."""
     return _LINES[message.LINE]
+
+
+def product_line(product: str) -> Line:
+    """The line a product speaks (mc and blmc-h: MC; spec/lines.json product_lines)."""
+    try:
+        return _LINES[PRODUCT_LINES[product]]
+    except KeyError:
+        raise UnknownLineError(f"unknown product {product!r}; products: {', '.join(PRODUCT_LINES)}") from None
+
+
+#: a simulated controller must speak one table: a simulated "sm" speaks the C# table, the one the
+#: vendor's Supporter drives detected SMs with (docs/protocol.md, Product lines)
+SIMULATED_LINES: Mapping[str, str] = {**PRODUCT_LINES, "sm": "sm-cs"}
