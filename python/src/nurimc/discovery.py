@@ -17,6 +17,7 @@ from .client.actions import Note, Procedure
 from .client.core import BusCore
 from .client.timing import MAX_RESPONSE_TIME, Timing
 from .errors import CorruptedAnswer, NoAnswer, UnexpectedAnswer
+from .products import detect_line
 from .protocol import BAUD_RATES, RequestFirmware, RequestPing
 
 # Most likely first: the default, then the usual fast rates, then the rest.
@@ -49,6 +50,7 @@ class Found:
     baudrate: int
     firmware: int | None
     collision: bool = False  # several controllers answer at this ID and rate
+    line: str = "unknown"  # product line by the vendor's rule (nurimc.products); "unknown" if none matched
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,7 +63,11 @@ class Progress:
 
 
 def discover(
-    core: BusCore, rates: Iterable[int] | None = None, ids: Iterable[int] | None = None, broadcast: bool = True
+    core: BusCore,
+    rates: Iterable[int] | None = None,
+    ids: Iterable[int] | None = None,
+    broadcast: bool = True,
+    lines: bool = True,
 ) -> Procedure[list[Found]]:
     """Find controllers. Progress is reported as Note(Progress(...)). Leaves the bus at its old rate."""
     rate_list = [r for r in RATE_ORDER if r in set(rates or BAUD_RATES)]
@@ -100,9 +106,13 @@ def discover(
             yield from core.set_baud(f.baudrate)
             try:
                 answer = yield from core.ask(RequestFirmware(f.id))
-                result.append(Found(f.id, f.baudrate, answer.fields()["version"], f.collision))
+                f = Found(f.id, f.baudrate, answer.fields()["version"], f.collision)
             except (NoAnswer, UnexpectedAnswer):
-                result.append(f)
+                pass
+            if lines and not f.collision:  # each controller's product line (nurimc.products)
+                identified = yield from detect_line(core, f.id)
+                f = Found(f.id, f.baudrate, f.firmware, f.collision, identified.line)
+            result.append(f)
     except GeneratorExit:  # closed by its driver: no I/O possible any more (finally still runs)
         raise
     except BaseException as failure:  # an I/O error, a timeout or a cancellation thrown in (docs/drivers.md)

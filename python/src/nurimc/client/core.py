@@ -14,16 +14,13 @@ from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, UnexpectedAnswer
 from ..protocol import (
     BROADCAST_ID,
     Command,
-    FactoryReset,
     Message,
     Request,
-    SetControl,
-    SetId,
     StreamParser,
     answer_class,
     build_frame,
 )
-from ..protocol.host import LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window, writes_eeprom
+from ..protocol.host import EEPROM_WRITES, LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window
 from .actions import Discard, Now, Procedure, Receive, Send, Sent, SetBaud, Wait, WaitUntil
 from .timing import Timing
 
@@ -115,16 +112,18 @@ class BusCore:
     def _mark_busy(self, commands: Sequence[Command], sent: Sent, nbytes: int) -> None:
         end = sent.finished + self.timing.wire_time(nbytes, self.baudrate) + self.timing.latency
         for command in commands:
-            if isinstance(command, SetControl):
-                self._note_control(command.id, command.control == 1)
-            if not writes_eeprom(command.SPEC.mode):
+            name = command.name  # by name: the same message has another mode in another line
+            if name == "set_control":
+                self._note_control(command.id, command.fields()["control"] == 1)
+            if name not in EEPROM_WRITES:
                 continue
             ids = [command.id]
-            if isinstance(command, SetId):
-                ids.append(command.new_id)
+            if name == "set_id":
+                new_id = command.fields()["new_id"]
+                ids.append(new_id)
                 if command.id in self.control_released:
-                    self.control_released[command.new_id] = self.control_released.pop(command.id)
-            elif isinstance(command, FactoryReset) and command.id != BROADCAST_ID:
+                    self.control_released[new_id] = self.control_released.pop(command.id)
+            elif name == "factory_reset" and command.id != BROADCAST_ID:
                 ids.append(0)  # it comes back as ID 0
                 self.control_released.pop(command.id, None)
             for device_id in ids:
@@ -234,7 +233,7 @@ class BusCore:
             sent: Sent = yield Send(frame)
             first_sent = sent.started if first_sent is None else first_sent
             self.stats.requests += 1
-            parser = StreamParser()
+            parser = StreamParser(line=request.LINE)  # the answer in the request's product line
             others: list[Message] = []
             while True:
                 data = yield Receive(max(1, answer_len - parser.pending), sent.finished + deadline)
@@ -313,7 +312,7 @@ class BusCore:
         yield from self._wait_until_free([BROADCAST_ID])
         yield from self._discard()
         sent: Sent = yield Send(build_frame(BROADCAST_ID, request_cls.SPEC.mode, b""))
-        parser, answers, heard = StreamParser(), list[Message](), set[int]()
+        parser, answers, heard = StreamParser(line=request_cls.LINE), list[Message](), set[int]()
         wanted = None if ids is None else set(ids)
         while True:
             data = yield Receive(cls.SPEC.size + 4, sent.finished + window)
