@@ -332,6 +332,8 @@ class SimController:
                 servo.move_at_speed(target, msg.speed / 10 * 6)
             else:
                 servo.move_in_time(target, msg.arrival_time / 10)
+        elif isinstance(msg, m.AccelSpeed) and msg.speed == 0:  # taken only under speed_zero=stop
+            servo.stop(msg.arrival_time / 10)  # decelerate over the arrival time, then hold
         elif isinstance(msg, m.AccelSpeed):
             servo.ramp_speed(_signed(msg.direction, msg.speed / 10 * 6) * sense, msg.arrival_time / 10)
 
