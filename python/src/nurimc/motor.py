@@ -237,11 +237,14 @@ class MotorProcedures:
         yield from self.core.ask(self._request("request_ping", "ping"))
         return True
 
-    def _setting(self, name: str) -> Setting:
-        """A setting this line has (read and, if it is writable, written), or InputError."""
+    def _setting(self, name: str, write: bool = False) -> Setting:
+        """A setting this line can read (and, with `write`, write), or InputError."""
         s = setting(name)
-        if not self.line.has(s.request) or (s.command is not None and not self.line.has(s.command)):
-            raise InputError(_unsupported(self.line.key, self.line.title, self.id, f"the {s.name} setting", s.request))
+        missing = s.request if not self.line.has(s.request) else None
+        if write and missing is None and s.command is not None and not self.line.has(s.command):
+            missing = s.command
+        if missing is not None:
+            raise InputError(_unsupported(self.line.key, self.line.title, self.id, f"the {s.name} setting", missing))
         return s
 
     # -- settings -------------------------------------------------------------
@@ -268,7 +271,7 @@ class MotorProcedures:
 
     def set(self, name: str, value: object) -> Procedure[float | int | str]:
         """Write a setting in physical units and verify it by reading it back."""
-        s = self._setting(name)
+        s = self._setting(name, write=True)
         if s.command is None:
             raise InputError(f"{s.name} is read-only")
         raw = s.to_wire(value)
