@@ -170,8 +170,8 @@ def lines_header(spec: dict[str, Any]) -> str:
             "/** One line: its name and its message table. In a line's message specs, `answer` and",
             "    `request` are indexes into the same line's table (or NURIMC_MSG_NONE). */",
             "typedef struct nurimc_line_spec {",
-            "    const char *name;  /**< spec/lines.json key: \"mc\", \"rsa\", \"sm-cs\", ... */",
-            "    const char *title; /**< \"RSA\", \"SM (C# table)\", ... */",
+            '    const char *name;  /**< spec/lines.json key: "mc", "rsa", "sm-cs", ... */',
+            '    const char *title; /**< "RSA", "SM (C# table)", ... */',
             "    uint8_t message_count;",
             "    const nurimc_message_spec *messages;",
             "    const uint8_t *index_by_mode_plus_one; /**< [256]: mode byte -> message index + 1 (0: none) */",
@@ -244,7 +244,9 @@ def lines_tables(spec: dict[str, Any]) -> str:
         out.append(f"static const nurimc_message_spec messages_{ident}[] = {{")
         for m in msgs:
             answer = f"(nurimc_message_type){index[m['answer']]}" if m.get("answer") else "NURIMC_MSG_NONE"
-            request = f"(nurimc_message_type){index[requests[m['name']]]}" if m["name"] in requests else "NURIMC_MSG_NONE"
+            request = (
+                f"(nurimc_message_type){index[requests[m['name']]]}" if m["name"] in requests else "NURIMC_MSG_NONE"
+            )
             fields = f"fields_{ident}_{m['name']}" if m["fields"] else "NULL"
             out.append(
                 f"    {{{_c_string(m['name'])}, {_c_string(m['title'])}, {kinds[m['kind']]}, 0x{m['mode']:02X}u, "

@@ -969,7 +969,13 @@ VENDOR_FRAMES: list[tuple[str, str, str, int, dict[str, int]]] = [
     ("rsa", "FF FE 00 04 E8 09 00 0A", "set_ratio", 0, {"ratio": 10}),
     ("rsa", "FF FE 01 03 F0 0B 00", "set_position_mode", 1, {"position_mode": 0}),
     ("rsa", "FF FE 00 03 F1 0A 01", "set_control", 0, {"control": 1}),
-    ("rsa", "FF FE 00 07 76 01 00 46 50 03 E8", "position_speed", 0, {"direction": 0, "position": 18000, "speed": 1000}),
+    (
+        "rsa",
+        "FF FE 00 07 76 01 00 46 50 03 E8",
+        "position_speed",
+        0,
+        {"direction": 0, "position": 18000, "speed": 1000},
+    ),
     ("rsa", "FF FE 00 02 57 A6", "request_ratio", 0, {}),
     ("rsa", "FF FE 00 04 C1 D6 00 64", "ratio", 0, {"ratio": 100}),
     ("rsa", "FF FE 00 03 24 D8 00", "position_mode", 0, {"position_mode": 0}),
@@ -982,15 +988,32 @@ VENDOR_FRAMES: list[tuple[str, str, str, int, dict[str, int]]] = [
     ("sm", "FF FE 00 03 F4 07 01", "set_control", 0, {"control": 1}),
     ("sm", "FF FE 00 04 EB 06 00 0A", "set_ratio", 0, {"ratio": 10}),
     ("sm", "FF FE 00 02 F5 08", "reset_position", 0, {}),
-    ("sm", "FF FE 07 08 91 D1 01 03 E8 00 96 0C", "speed_feedback", 7,
-     {"direction": 1, "speed": 1000, "position": 150, "current": 12}),
+    (
+        "sm",
+        "FF FE 07 08 91 D1 01 03 E8 00 96 0C",
+        "speed_feedback",
+        7,
+        {"direction": 1, "speed": 1000, "position": 150, "current": 12},
+    ),
     ("sm", "FF FE 00 06 CD D2 1E 0A 00 32", "speed_gains", 0, {"kp": 30, "ki": 10, "kd": 0, "rated_current": 50}),
     ("sm", "FF FE 00 04 1D D4 00 0A", "ratio", 0, {"ratio": 10}),
     ("sm", "FF FE 00 03 27 D5 00", "control", 0, {"control": 0}),
     ("sm-cs", "FF FE 00 06 0C 01 00 03 E8 01", "accel_speed", 0, {"direction": 0, "speed": 1000, "arrival_time": 1}),
     ("sm-cs", "FF FE 00 03 F8 03 01", "set_id", 0, {"new_id": 1}),
-    ("sm-cs", "FF FE 00 06 9D 02 1E 0A 00 32", "set_speed_gains", 0, {"kp": 30, "ki": 10, "kd": 0, "rated_current": 50}),
-    ("sm-readme", "FF FE 00 06 0A 03 00 03 E8 01", "accel_speed", 0, {"direction": 0, "speed": 1000, "arrival_time": 1}),
+    (
+        "sm-cs",
+        "FF FE 00 06 9D 02 1E 0A 00 32",
+        "set_speed_gains",
+        0,
+        {"kp": 30, "ki": 10, "kd": 0, "rated_current": 50},
+    ),
+    (
+        "sm-readme",
+        "FF FE 00 06 0A 03 00 03 E8 01",
+        "accel_speed",
+        0,
+        {"direction": 0, "speed": 1000, "arrival_time": 1},
+    ),
     ("sm-readme", "FF FE 00 03 21 D6 05", "firmware_a6", 0, {"version": 5}),
 ]
 
@@ -1022,8 +1045,12 @@ def lines_vectors() -> list[dict[str, Any]]:
             for case, (msg_id, values) in cases.items():
                 raw = line_encode(line, name, msg_id, values)
                 tag = f"{line} {name} {case}"
-                out.append(vec(tag + ": encode", with_line(line, encode_request(name, msg_id, values)), {"hex": hexs(raw)}))
-                out.append(vec(tag + ": decode", {"op": "decode", "hex": hexs(raw), "line": line}, line_decode(line, raw)))
+                out.append(
+                    vec(tag + ": encode", with_line(line, encode_request(name, msg_id, values)), {"hex": hexs(raw)})
+                )
+                out.append(
+                    vec(tag + ": decode", {"op": "decode", "hex": hexs(raw), "line": line}, line_decode(line, raw))
+                )
             if line == "mc":
                 continue
             typical_values = cases["typical"][1]
@@ -1096,8 +1123,11 @@ def lines_vectors() -> list[dict[str, Any]]:
         )
     # what is no line
     for bad in ["MC", "rsa ", "", "blmc-h", "sm_cs", 3, None, True]:
-        for op in ({"op": "decode", "hex": "fffe00025fa0"}, {"op": "encode", "id": 0, "message": "request_ping"},
-                   {"op": "parse", "hex": ""}):
+        for op in (
+            {"op": "decode", "hex": "fffe00025fa0"},
+            {"op": "encode", "id": 0, "message": "request_ping"},
+            {"op": "parse", "hex": ""},
+        ):
             out.append(vec(f"{op['op']}: line {bad!r} is unknown", {**op, "line": bad}, {"error": "unknown_line"}))
     return out
 

@@ -54,15 +54,33 @@ def load() -> dict[str, Any]:
     lines_data = json.loads(LINES_PATH.read_text())
     spec["lines"] = _lines(spec, lines_data)
     spec["product_lines"] = {k: v for k, v in lines_data["product_lines"].items() if not k.startswith("$")}
-    if set(spec["product_lines"]) != set(spec["products"]) or not set(spec["product_lines"].values()) <= set(spec["lines"]):
+    named = set(spec["product_lines"].values())
+    if set(spec["product_lines"]) != set(spec["products"]) or not named <= set(spec["lines"]):
         raise SystemExit("spec/lines.json product_lines must name every product of spec/protocol.json and a line each")
     return spec
+
+
+def _line_message(
+    spec: dict[str, Any], data: dict[str, Any], fields: dict[str, Any], name: str, mode: int
+) -> dict[str, Any]:
+    """A line's message: MC's layout of that name, or one of lines.json's own layouts."""
+    mc = {m["name"]: m for m in spec["messages"]}
+    if name in mc:
+        base = mc[name]
+        msg = {k: v for k, v in base.items() if k not in ("fields", "mode", "section", "max_id")}
+        msg["fields"] = [dict(f) for f in base["fields"]]
+        msg["max_id"] = base["max_id"]
+    else:
+        msg = dict(data["layouts"][name], name=name)
+        _resolve(msg, fields, spec["frame"])
+    msg["mode"] = mode
+    msg["section"] = 0
+    return msg
 
 
 def _lines(spec: dict[str, Any], data: dict[str, Any]) -> dict[str, Any]:
     """Each line with its messages resolved: MC's layouts by name, or the extra layouts."""
     fields = {**spec["fields"], **data["fields"]}
-    mc = {m["name"]: m for m in spec["messages"]}
     lines: dict[str, Any] = {}
     for key, entry in data["lines"].items():
         line = {k: v for k, v in entry.items() if k not in ("modes", "base", "messages")}
@@ -74,27 +92,13 @@ def _lines(spec: dict[str, Any], data: dict[str, Any]) -> dict[str, Any]:
         modes = dict(lines[entry["base"]]["modes"]) if "base" in entry else {}
         modes.update({name: _int(mode) for name, mode in entry["modes"].items()})
         line["modes"] = modes
-        messages = []
-
-        def add(name: str, mode: int) -> None:
-            if name in mc:
-                base = mc[name]
-                msg = {k: v for k, v in base.items() if k not in ("fields", "mode", "section", "max_id")}
-                msg["fields"] = [dict(f) for f in base["fields"]]
-                msg["max_id"] = base["max_id"]
-            else:
-                msg = dict(data["layouts"][name], name=name)
-                _resolve(msg, fields, spec["frame"])
-            msg["mode"] = mode
-            msg["section"] = 0
-            messages.append(msg)
-
-        for name, mode in modes.items():
-            add(name, mode)
+        messages = [_line_message(spec, data, fields, name, mode) for name, mode in modes.items()]
         # a request's answer is in the line at mode + 0x30 (the rule of every line, S1 enums)
-        for msg in list(messages):
-            if msg.get("answer"):
-                add(msg["answer"], (msg["mode"] + 0x30) & 0xFF)
+        messages += [
+            _line_message(spec, data, fields, m["answer"], (m["mode"] + 0x30) & 0xFF)
+            for m in messages
+            if m.get("answer")
+        ]
         if len({m["mode"] for m in messages}) != len(messages) or len({m["name"] for m in messages}) != len(messages):
             raise SystemExit(f"spec/lines.json: line {key} gives two messages one mode or one name twice")
         messages.sort(key=lambda m: (("command", "request", "answer").index(m["kind"]), m["mode"]))

@@ -64,7 +64,10 @@ def _unsupported(line: str, title: str, device_id: int, what: str, name: str) ->
             "give --product sm-cs or sm-readme (bus.motor(id, 'sm-cs')) once you know which it speaks"
         )
     if name in ("position_speed", "accel_position", "request_position", "request_position_mode"):
-        return f"ID {device_id} is an {title}, a speed-only motor: it has no position commands ({what}); use run() or release()"
+        return (
+            f"ID {device_id} is an {title}, a speed-only motor: it has no position commands ({what}); "
+            "use run() or release()"
+        )
     return f"ID {device_id} is an {title}: the {title} line has no {name} ({what}); nothing was sent"
 
 
@@ -111,7 +114,9 @@ class MotorProcedures:
             raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
         if rpm is not None:
             speed = self._speed_wire("move", rpm)
-            return self._command("position_speed", "move", direction=_direction(degrees), position=position, speed=speed)
+            return self._command(
+                "position_speed", "move", direction=_direction(degrees), position=position, speed=speed
+            )
         assert seconds is not None
         arrival = self._seconds_wire(seconds)
         return self._command(

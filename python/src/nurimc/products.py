@@ -76,6 +76,6 @@ def detect_line(core: BusCore, device_id: int) -> Procedure[Identified]:
 
 
 def line_of_product(product: str) -> str:
-    from .protocol.lines import PRODUCT_LINES
+    from .protocol._lines import PRODUCT_LINES
 
     return PRODUCT_LINES.get(product, product)

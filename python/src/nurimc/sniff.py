@@ -17,8 +17,8 @@ from .protocol import HEADER, Message
 from .protocol._tables import MAX_SIZE
 from .protocol.codec import decode_valid
 from .protocol.frame import CHECKSUM_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
-from .protocol.message import Answer
 from .protocol.lines import line as line_named
+from .protocol.message import Answer
 
 _FF = HEADER[0]
 

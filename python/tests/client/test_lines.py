@@ -40,7 +40,7 @@ def mixed() -> Iterator[tuple[SimBus, Bus]]:
 
 
 def test_discovery_names_each_line_at_unknown_rates(mixed: tuple[SimBus, Bus]) -> None:
-    sim, bus = mixed
+    _, bus = mixed
     found = bus.run(discover(bus.core))
     assert {(f.id, f.baudrate, f.line) for f in found} == {(1, 9600, "mc"), (7, 57600, "rsa"), (9, 115200, "sm")}
     assert bus.baudrate == 19200

@@ -18,10 +18,10 @@ from rich.table import Table
 from rich.text import Text
 
 from ..client.sync import Bus
-from ..motor import Motor
-from ..products import detect_line
 from ..errors import InputError
 from ..inputs import Rounded, integer, number, on_grid, range_text, show, with_unit
+from ..motor import Motor
+from ..products import detect_line
 from ..protocol import BAUD_RATES, StreamParser
 from ..transport import RS485
 

@@ -16,9 +16,9 @@ from ..discovery import discover
 from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
 from ..motor import MotorState
+from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
-from ..products import DESCRIPTIONS
 from .common import STOP, Number, check_baud, emit, err, fail, motor_for, one_id, open_bus, options, parse_ids, table
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")

@@ -110,7 +110,9 @@ class Line:
         wanted = cls.SPEC.field_names
         for f in wanted:
             if f not in fields:
-                raise MissingFieldError(f"{name} needs the field {f!r} (fields: {', '.join(wanted) or 'none'})", name, f)
+                raise MissingFieldError(
+                    f"{name} needs the field {f!r} (fields: {', '.join(wanted) or 'none'})", name, f
+                )
         for f in fields:
             if f not in wanted:
                 raise UnknownFieldError(f"{name} has no field {f!r} (fields: {', '.join(wanted) or 'none'})", name, f)
@@ -118,9 +120,10 @@ class Line:
 
     def check(self, message: Message) -> Message:
         """The message if it belongs to this line; else WrongLineError (never send it)."""
-        if message.LINE != self.key:
+        if self.key != message.LINE:
             raise WrongLineError(
-                f"{message.name} of the {_LINES[message.LINE].title} line cannot go to a controller of the {self.title} line: "
+                f"{message.name} of the {_LINES[message.LINE].title} line cannot go to a controller of the "
+                f"{self.title} line: "
                 f"mode {message.SPEC.mode:02X} means something else there"
                 + (
                     f"; use {self.title}'s own {message.name} (mode {self.classes[message.name].SPEC.mode:02X})"

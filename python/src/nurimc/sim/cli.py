@@ -36,7 +36,8 @@ def sim(
     motor: Annotated[
         list[str] | None,
         typer.Option(
-            help="A controller at its own rate and product, ID@RATE[:PRODUCT] (repeatable), e.g. 3@57600 or 7@57600:rsa."
+            help="A controller at its own rate and product, ID@RATE[:PRODUCT] (repeatable), "
+            "e.g. 3@57600 or 7@57600:rsa."
         ),
     ] = None,
     product: Annotated[
@@ -75,7 +76,8 @@ def sim(
 
     Example: nurimc sim --link /tmp/nurimc0 --ids 1,2 --motor 3@57600 --wire-timing
 
-    Mixed product lines, each at its own rate: nurimc sim --link /tmp/nurimc0 --motor 1@9600:mc --motor 7@57600:rsa --motor 9@115200:sm
+    Mixed product lines, each at its own rate:
+    nurimc sim --link /tmp/nurimc0 --motor 1@9600:mc --motor 7@57600:rsa --motor 9@115200:sm
     """
     logging.basicConfig(
         level=logging.DEBUG if verbose else logging.WARNING,

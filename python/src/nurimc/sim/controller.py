@@ -239,7 +239,7 @@ class SimController:
         if answer is None:
             self._move(message)
             return None
-        if answer.LINE != self.line:  # MC's answer class: sent with this line's mode byte
+        if self.line != answer.LINE:  # MC's answer class: sent with this line's mode byte
             answer = self._line.classes[answer.name](*answer)
         start = now + self.settings.response_time * 100e-6
         return Reply(start, answer.encode(), self.baud, self)
@@ -305,18 +305,19 @@ class SimController:
             servo.zero()
             return
         if msg.name == "set_echo":  # RSAVW: kept and read back (it is not said what echo does)
-            self.echo = getattr(msg, "echo")
+            self.echo = msg.fields()["echo"]
             return
         if self.settings.control:  # control off: motion commands are ignored until control on
             log.debug("id %d ignores %s: control is off (set_control with control 0 turns it on)", self.id, msg)
             return
         if msg.name == "open_loop":  # SA: drive at a duty, no loop; duty 0 lets the motor go
-            duty = getattr(msg, "duty")
+            fields = msg.fields()
+            duty = fields["duty"]
             if duty == 0:
                 servo.release()
             else:
                 top = servo.limits.max_speed * duty / 10000
-                servo.ramp_speed(_signed(getattr(msg, "direction"), top) * sense, 0.1)
+                servo.ramp_speed(_signed(fields["direction"], top) * sense, 0.1)
             return
         if isinstance(msg, m.PositionSpeed) and msg.speed == 0:  # taken only under speed_zero=stop
             servo.hold()  # stop: hold the place it has reached
