@@ -4,7 +4,7 @@
  * parsed with that line's table only, so an RSA `set_ratio` (mode 09) can never be sent as
  * MC's (mode 0B). See docs/protocol.md, Product lines.
  */
-import { decodeWithModes, encodeWithSpec, makeFromSpec, type Message } from "./codec.js";
+import { decodeWithModes, encodeWithSpec, type Message, makeFromSpec } from "./codec.js";
 import { EncodeError } from "./errors.js";
 import { LINES } from "./generated/lines.js";
 import { StreamParser } from "./parser.js";
@@ -69,7 +69,12 @@ export function lineMessageSpec(line: string, name: unknown): MessageSpec {
 const withLine = (line: string, message: Message): LineMessage => ({ ...message, line }) as LineMessage;
 
 /** Build a line's message by name, fully checked like make(). */
-export function makeIn(line: string, name: string, id: unknown, fields: Readonly<Record<string, unknown>>): LineMessage {
+export function makeIn(
+  line: string,
+  name: string,
+  id: unknown,
+  fields: Readonly<Record<string, unknown>>,
+): LineMessage {
   return withLine(line, makeFromSpec(lineMessageSpec(line, name), id, fields));
 }
 
