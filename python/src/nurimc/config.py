@@ -21,16 +21,32 @@ from .protocol import (
     BAUD_RATES,
     DEVICE_DEFAULTS,
     PROTOCOL,
+    Command,
     FactoryReset,
     RequestPing,
     SetBaud,
     SetControl,
     SetId,
     baud_index,
+    product_line,
 )
 from .settings import SETTINGS
 
 BACKUP_FORMAT = backup_file.FORMAT
+
+
+def _in_line(core: BusCore, command: Command) -> Command:
+    """The command in the product line known for its ID (nurimc.products; MC if none is known):
+    the same setting has another mode in another line, and an SM's ID and baud codes are disputed."""
+    product = core.products.get(command.id, "mc")
+    target = product_line(product)
+    if target.key == "mc":
+        return command
+    if not target.has(command.name):
+        raise InputError(f"ID {command.id} is an {target.title}: its line has no {command.name}; nothing was sent")
+    converted = target.make(command.name, command.id, **command.fields())
+    assert isinstance(converted, Command)
+    return converted
 
 
 def answers(core: BusCore, device_id: int, window: float = 0.0) -> Procedure[bool]:
@@ -59,10 +75,12 @@ def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
         raise IdInUse(f"ID {new} already answers at {core.baudrate} bps; pick a free ID (see `nurimc scan`)")
     if not (yield from answers(core, old)):
         raise NoAnswer("request_ping", old, core.baudrate, core.retries + 1)
-    yield from core.tell(SetId(old, new))
+    yield from core.tell(_in_line(core, SetId(old, new)))
     yield Wait(EEPROM_SETTLE)
     if (yield from answers(core, new, VERIFY_WINDOW)):
         core.response_times.pop(old, None)
+        if old in core.products:  # its product line moves with it
+            core.products[new] = core.products.pop(old)
         return
     still_old = yield from answers(core, old)
     raise SettingNotApplied(
@@ -95,7 +113,7 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
 def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int) -> Procedure[int]:
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
-    yield from core.tell(SetBaud(device_id, index))
+    yield from core.tell(_in_line(core, SetBaud(device_id, index)))
     yield Wait(EEPROM_SETTLE)
     yield from core.set_baud(rate)
     if (yield from answers(core, device_id, VERIFY_WINDOW)):
@@ -119,15 +137,17 @@ def factory_reset(core: BusCore, device_id: int, confirm: bool = False) -> Proce
             f"factory reset of ID {device_id} erases every setting (it returns as ID 0 at 9600 bps); "
             "pass confirm=True (CLI: --yes) to do it"
         )
-    yield from core.tell(FactoryReset(device_id))
+    yield from core.tell(_in_line(core, FactoryReset(device_id)))
     core.response_times.pop(device_id, None)
+    if device_id in core.products and device_id != 0xFF:  # it comes back as ID 0, the same line
+        core.products[0] = core.products.pop(device_id)
     yield Wait(EEPROM_SETTLE * 2)
 
 
 def recover_runaway(motor: MotorProcedures) -> Procedure[str]:
     """A motor that runs away (motor or encoder wired the other way round): release it and flip its
     control direction (the document's appendix). It is left released; re-enable with hold()."""
-    yield from motor.core.tell(SetControl(motor.id, 1))
+    yield from motor.core.tell(_in_line(motor.core, SetControl(motor.id, 1)))
     direction = yield from motor.get("direction")
     flipped = "cw" if direction == "ccw" else "ccw"
     yield from motor.set("direction", flipped)

@@ -139,3 +139,21 @@ def test_scan_and_status_from_the_command_line() -> None:
         assert ("position-kp" in status["settings"]) == (product != "sm")
     run = nurimc("--id", "9", "--baud", "115200", "run", "30")
     assert run.returncode == 2 and "--product sm-cs or sm-readme" in run.stderr
+
+
+def test_id_changes_and_resets_go_out_in_the_motors_line() -> None:
+    from nurimc import config as cfg
+
+    sim, bus = lines_bus({7: (9600, "rsa"), 9: (9600, "sm")}, baud=9600)
+    bus.run(discover(bus.core, rates=[9600]))  # 7: rsa, 9: sm (the agreed table)
+    bus.run(cfg.change_id(bus.core, 7, 8))  # RSA's set ID is 06, as MC's
+    assert sim.controller(8).product == "rsa"
+    with pytest.raises(InputError, match="SM: its line has no set_id"):
+        bus.run(cfg.change_id(bus.core, 9, 4))  # disputed: 03 (C#) or none (README)
+    bus.core.products[9] = "sm-cs"  # the user says which table it speaks
+    bus.run(cfg.change_id(bus.core, 9, 4))  # C# 03
+    assert sim.controller(4).product == "sm"
+    bus.run(cfg.factory_reset(bus.core, 8, confirm=True))  # RSA's factory reset is 0D (MC's 10)
+    assert sim.controller(0).product == "rsa"
+    bus.close()
+    sim.close()
