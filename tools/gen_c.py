@@ -134,6 +134,139 @@ def tables(spec: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+LINES_HEADER_PATH = C_DIR / "include" / "nurimc_lines.h"
+LINES_TABLES_PATH = C_DIR / "src" / "nurimc_lines_tables.c"
+LINES_BANNER = BANNER.replace("spec/protocol.json", "spec/protocol.json and spec/lines.json")
+
+
+def _line_enum(key: str) -> str:
+    return "NURIMC_LINE_" + key.upper().replace("-", "_")
+
+
+def lines_header(spec: dict[str, Any]) -> str:
+    """Product lines for C: the line enum, each line's message table, the line codec's API."""
+    keys = list(spec["lines"])
+    max_count = max(len(line["messages"]) for line in spec["lines"].values())
+    return "\n".join(
+        [
+            LINES_BANNER,
+            "/* Product lines (spec/lines.json): the same frame, a different message table per line.",
+            "   See docs/protocol.md, Product lines. The MC line is the table of <nurimc.h>. */",
+            "#ifndef NURIMC_LINES_H",
+            "#define NURIMC_LINES_H",
+            "",
+            '#include "nurimc.h"',
+            "",
+            "#ifdef __cplusplus",
+            'extern "C" {',
+            "#endif",
+            "",
+            "typedef enum nurimc_line {",
+            *[f"    {_line_enum(k)}," for k in keys],
+            "    NURIMC_LINE_COUNT",
+            "} nurimc_line;",
+            f"#define NURIMC_LINE_MAX_MESSAGES {max_count}u",
+            "",
+            "/** One line: its name and its message table. In a line's message specs, `answer` and",
+            "    `request` are indexes into the same line's table (or NURIMC_MSG_NONE). */",
+            "typedef struct nurimc_line_spec {",
+            '    const char *name;  /**< spec/lines.json key: "mc", "rsa", "sm-cs", ... */',
+            '    const char *title; /**< "RSA", "SM (C# table)", ... */',
+            "    uint8_t message_count;",
+            "    const nurimc_message_spec *messages;",
+            "    const uint8_t *index_by_mode_plus_one; /**< [256]: mode byte -> message index + 1 (0: none) */",
+            "} nurimc_line_spec;",
+            "",
+            "extern const nurimc_line_spec nurimc_line_specs[NURIMC_LINE_COUNT];",
+            "",
+            "/** A message of a line: its index in the line's table, the ID and the field values in wire order. */",
+            "typedef struct nurimc_line_message {",
+            "    nurimc_line line;",
+            "    uint8_t index;",
+            "    uint8_t id;",
+            "    uint16_t values[NURIMC_MAX_FIELDS];",
+            "} nurimc_line_message;",
+            "",
+            "/** The line named `name`, or -1. */",
+            "int nurimc_line_by_name(const char *name);",
+            "/** The spec of a line's message by index, or NULL. */",
+            "const nurimc_message_spec *nurimc_line_message_spec(nurimc_line line, int index);",
+            "/** The index of the line's message named `name`, or -1 (a message of another line is -1 too). */",
+            "int nurimc_line_message_index(nurimc_line line, const char *name);",
+            "/** Encode a line's message from wide integers in wire order: the checks of nurimc_encode_values. */",
+            "nurimc_status nurimc_line_encode_values(nurimc_line line, int index, long id, const long *values, uint8_t *out,",
+            "                                       size_t capacity, size_t *length, int *bad_field);",
+            "/** Decode one whole frame with the line's table (the checks and order of nurimc_decode). */",
+            "nurimc_status nurimc_line_decode(nurimc_line line, const uint8_t *frame, size_t length, nurimc_line_message *out);",
+            "/** Called by nurimc_line_scan for every frame, in order. */",
+            "typedef void (*nurimc_line_callback)(void *context, const nurimc_line_message *msg);",
+            "/** The stream rule over a whole buffer (the stream has ended): calls `callback` for every",
+            "    frame; *dropped (if not NULL) gets the bytes in no frame. Returns the frame count. */",
+            "size_t nurimc_line_scan(nurimc_line line, const uint8_t *data, size_t length, nurimc_line_callback callback,",
+            "                        void *context, size_t *dropped);",
+            "",
+            "#ifdef __cplusplus",
+            "}",
+            "#endif",
+            "",
+            "#endif",
+            "",
+        ]
+    )
+
+
+def lines_tables(spec: dict[str, Any]) -> str:
+    kinds = {"command": "NURIMC_KIND_COMMAND", "request": "NURIMC_KIND_REQUEST", "answer": "NURIMC_KIND_ANSWER"}
+    out = [LINES_BANNER, '#include "nurimc_lines.h"', "", "#include <stddef.h>", ""]
+    entries = []
+    for key, line in spec["lines"].items():
+        ident = key.replace("-", "_")
+        if key == "mc":
+            entries.append(
+                f"    {{{_c_string(key)}, {_c_string(line['title'])}, NURIMC_MESSAGE_COUNT, nurimc_message_specs, "
+                "nurimc_type_by_mode_plus_one},"
+            )
+            continue
+        msgs = line["messages"]
+        index = {m["name"]: i for i, m in enumerate(msgs)}
+        requests = {m["answer"]: m["name"] for m in msgs if m.get("answer")}
+        for m in msgs:
+            if not m["fields"]:
+                continue
+            out.append(f"static const nurimc_field_spec fields_{ident}_{m['name']}[] = {{")
+            for i, f in enumerate(m["fields"]):
+                num, den = _scale(f["scale"])
+                out.append(
+                    f"    {{{_c_string(f['name'])}, {_c_string(f['unit'])}, {f['min']}u, {f['max']}u, "
+                    f"{num}u, {den}u, {f['width']}u, {i}u}},"
+                )
+            out += ["};", ""]
+        out.append(f"static const nurimc_message_spec messages_{ident}[] = {{")
+        for m in msgs:
+            answer = f"(nurimc_message_type){index[m['answer']]}" if m.get("answer") else "NURIMC_MSG_NONE"
+            request = (
+                f"(nurimc_message_type){index[requests[m['name']]]}" if m["name"] in requests else "NURIMC_MSG_NONE"
+            )
+            fields = f"fields_{ident}_{m['name']}" if m["fields"] else "NULL"
+            out.append(
+                f"    {{{_c_string(m['name'])}, {_c_string(m['title'])}, {kinds[m['kind']]}, 0x{m['mode']:02X}u, "
+                f"{m['size']}u, {m['max_id']}u, {len(m['fields'])}u, {fields}, {answer}, {request}}},"
+            )
+        out += ["};", ""]
+        by_mode = ["0"] * 256
+        for i, m in enumerate(msgs):
+            by_mode[m["mode"]] = str(i + 1)
+        out.append(f"static const uint8_t by_mode_{ident}[256] = {{")
+        for row in range(0, 256, 16):
+            out.append("    " + ", ".join(by_mode[row : row + 16]) + ",")
+        out += ["};", ""]
+        entries.append(
+            f"    {{{_c_string(key)}, {_c_string(line['title'])}, {len(msgs)}u, messages_{ident}, by_mode_{ident}}},"
+        )
+    out += ["const nurimc_line_spec nurimc_line_specs[NURIMC_LINE_COUNT] = {", *entries, "};", ""]
+    return "\n".join(out)
+
+
 HOST_HEADER_PATH = C_DIR / "include" / "nurimc_host.h"
 HOST_BANNER = "/* GENERATED by tools/generate.py from spec/host.json and spec/profiles.json. Do not edit; run `make generate`. */\n"
 
@@ -226,6 +359,8 @@ def generate(spec: dict[str, Any], check: bool) -> list[Path]:
         (HEADER_PATH, header(spec)),
         (TABLES_PATH, tables(spec)),
         (HOST_HEADER_PATH, host_header(spec, load_host())),
+        (LINES_HEADER_PATH, lines_header(spec)),
+        (LINES_TABLES_PATH, lines_tables(spec)),
     )
     for path, text in outputs:
         if speclib.write_if_changed(path, text, check):

@@ -120,9 +120,48 @@ def messages(spec: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def lines(spec: dict[str, Any]) -> str:
+    """Every product line's messages (spec/lines.json); MC's are the SPECS of _tables.py."""
+    out = [
+        BANNER.replace("spec/protocol.json", "spec/protocol.json and spec/lines.json"),
+        '"""The product lines: which message each mode byte means in each line."""\n',
+        "from ._tables import SPECS",
+        "from .schema import FieldSpec, Kind, LineSpec, MessageSpec\n",
+        "LINES: dict[str, LineSpec] = {",
+    ]
+    for key, line in spec["lines"].items():
+        head = (
+            f"    {key!r}: LineSpec(\n        {key!r}, {line['title']!r}, {line['what']!r}, {line['source']!r}, "
+            f"{tuple(line['products'])!r},\n        ("
+        )
+        out.append(head)
+        answers_of = {m["answer"]: m["name"] for m in line["messages"] if m.get("answer")}
+        for m in line["messages"]:
+            if key == "mc":
+                out.append(f"            SPECS[{m['name']!r}],")
+                continue
+            fields = "".join(f"\n                {_field_expr(f)}," for f in m["fields"])
+            out.append(
+                f"            MessageSpec(\n"
+                f"                {m['name']!r}, Kind.{m['kind'].upper()}, 0x{m['mode']:02X}, {m['size']}, 0, {m['title']!r},\n"
+                f"                ({fields}\n                ),\n"
+                f"                answer={m.get('answer')!r}, request={answers_of.get(m['name'])!r}, max_id={m['max_id']},\n"
+                "            ),"
+            )
+        out += ["        ),", "    ),"]
+    out += ["}", "", "#: the line each product speaks (spec/lines.json product_lines)"]
+    out += [f"PRODUCT_LINES: dict[str, str] = {spec['product_lines']!r}", ""]
+    return "\n".join(out)
+
+
 def generate(spec: dict[str, Any], check: bool) -> list[Path]:
     stale = []
-    for path, text in ((PKG / "_tables.py", tables(spec)), (PKG / "messages.py", messages(spec))):
+    outputs = (
+        (PKG / "_tables.py", tables(spec)),
+        (PKG / "messages.py", messages(spec)),
+        (PKG / "_lines.py", lines(spec)),
+    )
+    for path, text in outputs:
         if speclib.write_if_changed(path, text, check):
             stale.append(path)
     return stale

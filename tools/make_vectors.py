@@ -933,7 +933,233 @@ def units_vectors() -> list[dict[str, Any]]:
     return out
 
 
+# ---- product lines (spec/lines.json) ---------------------------------------
+#
+# A request may name a `line` (default "mc"); the line's mode table decides what a mode byte
+# means and which messages exist. The reference model below reads each line's table only.
+
+LINES = SPEC["lines"]
+
+
+def line_messages(line: str) -> dict[str, dict[str, Any]]:
+    return {m["name"]: m for m in LINES[line]["messages"]}
+
+
+def line_encode(line: str, name: str, msg_id: int, fields: dict[str, int]) -> bytes:
+    msg = line_messages(line)[name]
+    data = b"".join(fields[f["name"]].to_bytes(f["width"], "big") for f in msg["fields"])
+    return frame(msg_id, msg["mode"], data)
+
+
+def line_decode(line: str, raw: bytes) -> dict[str, Any]:
+    """decode() with the line's mode table (the same checks in the same order)."""
+    if raw[:2] != HEADER[: len(raw[:2])]:
+        return {"error": "header"}
+    if len(raw) < 6 or len(raw) < raw[3] + 4:
+        return {"error": "truncated"}
+    if len(raw) > raw[3] + 4:
+        return {"error": "trailing"}
+    if ~sum(raw[2:4] + raw[5:]) & 0xFF != raw[4]:
+        return {"error": "checksum"}
+    msg = next((m for m in LINES[line]["messages"] if m["mode"] == raw[5]), None)
+    if msg is None:
+        return {"error": "unknown_mode"}
+    if raw[3] != msg["size"]:
+        return {"error": "size"}
+    out: dict[str, Any] = {"id": raw[2], "message": msg["name"]}
+    offset = 6
+    for f in msg["fields"]:
+        out[f["name"]] = int.from_bytes(raw[offset : offset + f["width"]], "big")
+        offset += f["width"]
+    return out
+
+
+def line_scan(line: str, stream: bytes) -> dict[str, Any]:
+    frames, dropped, pos = [], 0, 0
+    while pos < len(stream):
+        size = stream[pos + 3] if pos + 3 < len(stream) else 0
+        candidate = stream[pos : pos + size + 4]
+        result = line_decode(line, candidate) if len(candidate) >= 6 else {"error": "truncated"}
+        if "error" in result:
+            dropped += 1
+            pos += 1
+        else:
+            frames.append(result)
+            pos += len(candidate)
+    return {"frames": frames, "dropped_bytes": dropped}
+
+
+# Frames written out by hand from the fact sheet's layouts (product-lines.md §3-§4), checked
+# against the model: (line, hex, message, id, fields).
+VENDOR_FRAMES: list[tuple[str, str, str, int, dict[str, int]]] = [
+    ("rsa", "FF FE 00 04 E8 09 00 0A", "set_ratio", 0, {"ratio": 10}),
+    ("rsa", "FF FE 01 03 F0 0B 00", "set_position_mode", 1, {"position_mode": 0}),
+    ("rsa", "FF FE 00 03 F1 0A 01", "set_control", 0, {"control": 1}),
+    (
+        "rsa",
+        "FF FE 00 07 76 01 00 46 50 03 E8",
+        "position_speed",
+        0,
+        {"direction": 0, "position": 18000, "speed": 1000},
+    ),
+    ("rsa", "FF FE 00 02 57 A6", "request_ratio", 0, {}),
+    ("rsa", "FF FE 00 04 C1 D6 00 64", "ratio", 0, {"ratio": 100}),
+    ("rsa", "FF FE 00 03 24 D8 00", "position_mode", 0, {"position_mode": 0}),
+    ("rsa", "FF FE 00 03 25 D7 00", "control", 0, {"control": 0}),
+    ("rsavw", "FF FE 00 03 ED 0E 01", "set_echo", 0, {"echo": 1}),
+    ("rsavw", "FF FE 00 02 54 A9", "request_absolute_position", 0, {}),
+    ("rsavw", "FF FE 02 05 F2 D9 01 8C A0", "absolute_position", 2, {"direction": 1, "absolute_position": 36000}),
+    ("rsavw", "FF FE 00 03 21 DA 01", "echo", 0, {"echo": 1}),
+    ("sa", "FF FE 00 05 4E 11 00 13 88", "open_loop", 0, {"direction": 0, "duty": 5000}),
+    ("sm", "FF FE 00 03 F4 07 01", "set_control", 0, {"control": 1}),
+    ("sm", "FF FE 00 04 EB 06 00 0A", "set_ratio", 0, {"ratio": 10}),
+    ("sm", "FF FE 00 02 F5 08", "reset_position", 0, {}),
+    (
+        "sm",
+        "FF FE 07 08 91 D1 01 03 E8 00 96 0C",
+        "speed_feedback",
+        7,
+        {"direction": 1, "speed": 1000, "position": 150, "current": 12},
+    ),
+    ("sm", "FF FE 00 06 CD D2 1E 0A 00 32", "speed_gains", 0, {"kp": 30, "ki": 10, "kd": 0, "rated_current": 50}),
+    ("sm", "FF FE 00 04 1D D4 00 0A", "ratio", 0, {"ratio": 10}),
+    ("sm", "FF FE 00 03 27 D5 00", "control", 0, {"control": 0}),
+    ("sm-cs", "FF FE 00 06 0C 01 00 03 E8 01", "accel_speed", 0, {"direction": 0, "speed": 1000, "arrival_time": 1}),
+    ("sm-cs", "FF FE 00 03 F8 03 01", "set_id", 0, {"new_id": 1}),
+    (
+        "sm-cs",
+        "FF FE 00 06 9D 02 1E 0A 00 32",
+        "set_speed_gains",
+        0,
+        {"kp": 30, "ki": 10, "kd": 0, "rated_current": 50},
+    ),
+    (
+        "sm-readme",
+        "FF FE 00 06 0A 03 00 03 E8 01",
+        "accel_speed",
+        0,
+        {"direction": 0, "speed": 1000, "arrival_time": 1},
+    ),
+    ("sm-readme", "FF FE 00 03 21 D6 05", "firmware_a6", 0, {"version": 5}),
+]
+
+
+def with_line(line: str, request: dict[str, Any]) -> dict[str, Any]:
+    return {**request, "line": line}
+
+
+def lines_vectors() -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for line, printed, name, msg_id, fields in VENDOR_FRAMES:
+        raw = unspaced(printed)
+        expected = {"id": msg_id, "message": name, **fields}
+        assert line_decode(line, raw) == expected, (line, printed)
+        assert line_encode(line, name, msg_id, fields) == raw, (line, printed)
+        tag = f"{line} vendor layout {printed}"
+        out.append(vec(tag + ": decode", {"op": "decode", "hex": hexs(raw), "line": line}, expected))
+        out.append(vec(tag + ": encode", with_line(line, encode_request(name, msg_id, fields)), {"hex": hexs(raw)}))
+    for line, entry in LINES.items():
+        for msg in entry["messages"]:
+            name, fields = msg["name"], msg["fields"]
+            cases = {
+                "min": (0, {f["name"]: f["min"] for f in fields}),
+                "max": (msg["max_id"], {f["name"]: f["max"] for f in fields}),
+                "typical": (17, {f["name"]: typical(f) for f in fields}),
+            }
+            if line == "mc":  # messages.jsonl has MC in full: here only that "line":"mc" is MC
+                cases = {"typical": cases["typical"]}
+            for case, (msg_id, values) in cases.items():
+                raw = line_encode(line, name, msg_id, values)
+                tag = f"{line} {name} {case}"
+                out.append(
+                    vec(tag + ": encode", with_line(line, encode_request(name, msg_id, values)), {"hex": hexs(raw)})
+                )
+                out.append(
+                    vec(tag + ": decode", {"op": "decode", "hex": hexs(raw), "line": line}, line_decode(line, raw))
+                )
+            if line == "mc":
+                continue
+            typical_values = cases["typical"][1]
+            for f in fields:
+                for bad in (f["min"] - 1, f["max"] + 1):
+                    if 0 <= bad < (1 << 8 * f["width"]) and f["min"] <= bad <= f["max"]:
+                        continue
+                    values = dict(typical_values, **{f["name"]: bad})
+                    out.append(
+                        vec(
+                            f"{line} {name}.{f['name']} = {bad} out of range",
+                            with_line(line, encode_request(name, 1, values)),
+                            {"error": "range", "field": f["name"]},
+                        )
+                    )
+            if msg["kind"] != "command":
+                out.append(
+                    vec(
+                        f"{line} {name} id 255 is broadcast, not allowed",
+                        with_line(line, encode_request(name, 0xFF, typical_values)),
+                        {"error": "range", "field": "id"},
+                    )
+                )
+    # a message belongs to a line: names another line has are unknown here
+    every = {m["name"] for entry in LINES.values() for m in entry["messages"]}
+    for line, entry in LINES.items():
+        own = {m["name"] for m in entry["messages"]}
+        for name in sorted(every - own):
+            out.append(
+                vec(
+                    f"{line} has no {name}",
+                    {"op": "encode", "id": 0, "message": name, "line": line},
+                    {"error": "unknown_message"},
+                )
+            )
+    # one frame, a different message per line (the point of lines): every line decodes every
+    # line's typical frame of every mode its own way (or not at all)
+    seen: set[bytes] = set()
+    for entry in LINES.values():
+        for msg in entry["messages"]:
+            raw = line_encode(entry["key"], msg["name"], 3, {f["name"]: typical(f) for f in msg["fields"]})
+            if raw in seen:
+                continue
+            seen.add(raw)
+            for line in LINES:
+                out.append(
+                    vec(
+                        f"{line} reads {raw.hex(' ')}",
+                        {"op": "decode", "hex": hexs(raw), "line": line},
+                        line_decode(line, raw),
+                    )
+                )
+    # streams in a line's terms
+    rng = random.Random("lines")
+    for line, entry in LINES.items():
+        if line == "mc":
+            continue
+        frames = [
+            line_encode(line, m["name"], rng.randrange(255), {f["name"]: typical(f) for f in m["fields"]})
+            for m in entry["messages"]
+        ]
+        stream = b"".join(frames) + b"\xff\xfe\x00"
+        cut = len(stream) // 3
+        out.append(
+            vec(
+                f"{line} stream of every message",
+                {"op": "parse", "chunks": [hexs(stream[:cut]), hexs(stream[cut:])], "line": line},
+                line_scan(line, stream),
+            )
+        )
+    # what is no line
+    for bad in ["MC", "rsa ", "", "blmc-h", "sm_cs", 3, None, True]:
+        for op in (
+            {"op": "decode", "hex": "fffe00025fa0"},
+            {"op": "encode", "id": 0, "message": "request_ping"},
+            {"op": "parse", "hex": ""},
+        ):
+            out.append(vec(f"{op['op']}: line {bad!r} is unknown", {**op, "line": bad}, {"error": "unknown_line"}))
+    return out
+
+
 SETS = {
+    "lines": lines_vectors,
     "examples": example_vectors,
     "errata": errata_vectors,
     "messages": message_vectors,

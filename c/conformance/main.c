@@ -6,6 +6,7 @@
 
 #include "json.h"
 #include "nurimc.h"
+#include "nurimc_lines.h"
 #include "nurimc_host.h"
 #include "nurimc_settings.h"
 #include "nurimc_units.h"
@@ -165,8 +166,8 @@ static int op_encode(output *out, const json_doc *doc) {
     for (child = doc->nodes[0].first_child; child >= 0; child = doc->nodes[child].next_sibling) {
         const char *key = doc->nodes[child].key;
         size_t key_length = doc->nodes[child].key_length;
-        if (strlen(key) == key_length &&
-            (strcmp(key, "op") == 0 || strcmp(key, "id") == 0 || strcmp(key, "message") == 0)) {
+        if (strlen(key) == key_length && (strcmp(key, "op") == 0 || strcmp(key, "id") == 0 ||
+                                          strcmp(key, "message") == 0 || strcmp(key, "line") == 0)) {
             continue;
         }
         if (strlen(key) != key_length || nurimc_field_index(type, key) < 0) {
@@ -249,6 +250,171 @@ static int op_parse(output *out, const json_doc *doc) {
     put(out, "{\"frames\":[");
     if (c.frames.text != NULL) put(out, c.frames.text);
     snprintf(number, sizeof number, "%lu", (unsigned long)parser.stats.dropped_bytes);
+    put(out, "],\"dropped_bytes\":");
+    put(out, number);
+    put(out, "}");
+    free(c.frames.text);
+    return 0;
+}
+
+/* ---- product lines (spec/lines.json): "line" names the table; MC when absent ------------ */
+
+/* The request's line: NURIMC_LINE_MC when absent, -1 when "line" names no line. */
+static int request_line(const json_doc *doc) {
+    int node = json_member(doc, 0, "line");
+    if (node < 0) return NURIMC_LINE_MC;
+    if (doc->nodes[node].type != JSON_STRING || strlen(doc->nodes[node].text) != doc->nodes[node].length) return -1;
+    return nurimc_line_by_name(doc->nodes[node].text);
+}
+
+static void put_line_message(output *out, const nurimc_line_message *msg) {
+    const nurimc_message_spec *spec = nurimc_line_message_spec(msg->line, msg->index);
+    char number[24];
+    int i;
+    snprintf(number, sizeof number, "%u", (unsigned)msg->id);
+    put(out, "{\"id\":");
+    put(out, number);
+    put(out, ",\"message\":");
+    put_string(out, spec->name);
+    for (i = 0; i < spec->field_count; i++) {
+        put(out, ",");
+        put_string(out, spec->fields[i].name);
+        snprintf(number, sizeof number, ":%u", (unsigned)msg->values[i]);
+        put(out, number);
+    }
+    put(out, "}");
+}
+
+static void op_line_decode(output *out, const json_doc *doc, nurimc_line line) {
+    size_t length = 0;
+    uint8_t *bytes = hex_bytes(doc, json_member(doc, 0, "hex"), &length);
+    nurimc_line_message msg;
+    nurimc_status status;
+    if (bytes == NULL) {
+        put_error(out, "bad_hex", NULL);
+        return;
+    }
+    status = nurimc_line_decode(line, bytes, length, &msg);
+    free(bytes);
+    if (status == NURIMC_OK) {
+        put_line_message(out, &msg);
+    } else {
+        put_error(out, nurimc_status_name(status), NULL);
+    }
+}
+
+static int op_line_encode(output *out, const json_doc *doc, nurimc_line line) {
+    int message_node = json_member(doc, 0, "message"), id_node = json_member(doc, 0, "id");
+    const nurimc_message_spec *spec;
+    long values[NURIMC_MAX_FIELDS];
+    uint8_t frame[NURIMC_MAX_FRAME_LENGTH];
+    size_t length = 0;
+    int i, child, index, bad_field;
+    nurimc_status status;
+    char hex[2 * NURIMC_MAX_FRAME_LENGTH + 1];
+
+    if (message_node < 0) return put_error(out, "missing_field", "message");
+    if (id_node < 0) return put_error(out, "missing_field", "id");
+    if (doc->nodes[message_node].type != JSON_STRING ||
+        strlen(doc->nodes[message_node].text) != doc->nodes[message_node].length) {
+        return put_error(out, "unknown_message", NULL);
+    }
+    index = nurimc_line_message_index(line, doc->nodes[message_node].text);
+    spec = nurimc_line_message_spec(line, index);
+    if (spec == NULL) return put_error(out, "unknown_message", NULL);
+    for (i = 0; i < spec->field_count; i++) {
+        if (json_member(doc, 0, spec->fields[i].name) < 0) return put_error(out, "missing_field", spec->fields[i].name);
+    }
+    for (child = doc->nodes[0].first_child; child >= 0; child = doc->nodes[child].next_sibling) {
+        const char *key = doc->nodes[child].key;
+        size_t key_length = doc->nodes[child].key_length;
+        int known = 0;
+        if (strlen(key) == key_length) {
+            known = strcmp(key, "op") == 0 || strcmp(key, "id") == 0 || strcmp(key, "message") == 0 ||
+                    strcmp(key, "line") == 0;
+            for (i = 0; i < spec->field_count && !known; i++) known = strcmp(key, spec->fields[i].name) == 0;
+        }
+        if (!known) {
+            put(out, "{\"error\":\"unknown_field\",\"field\":");
+            put_string_n(out, key, key_length);
+            put(out, "}");
+            return 0;
+        }
+    }
+    if (!is_integer(doc, id_node)) return put_error(out, "type", "id");
+    if (doc->nodes[id_node].value < 0 || doc->nodes[id_node].value > spec->max_id) return put_error(out, "range", "id");
+    for (i = 0; i < spec->field_count; i++) {
+        int node = json_member(doc, 0, spec->fields[i].name);
+        if (!is_integer(doc, node)) return put_error(out, "type", spec->fields[i].name);
+        values[i] = doc->nodes[node].value;
+        if (values[i] < spec->fields[i].min || values[i] > spec->fields[i].max) {
+            return put_error(out, "range", spec->fields[i].name);
+        }
+    }
+    status = nurimc_line_encode_values(line, index, doc->nodes[id_node].value, values, frame, sizeof frame, &length,
+                                       &bad_field);
+    if (status != NURIMC_OK) return put_error(out, nurimc_status_name(status), NULL);
+    for (i = 0; i < (int)length; i++) snprintf(hex + 2 * i, 3, "%02x", frame[i]);
+    put(out, "{\"hex\":\"");
+    put(out, hex);
+    put(out, "\"}");
+    return 0;
+}
+
+typedef struct line_collected {
+    output frames;
+    int count;
+} line_collected;
+
+static void line_collect(void *context, const nurimc_line_message *msg) {
+    line_collected *c = context;
+    if (c->count++ > 0) put(&c->frames, ",");
+    put_line_message(&c->frames, msg);
+}
+
+/* Appends the bytes of hex node `node` to *all (realloc'd); -1 if not hex. */
+static int append_hex(const json_doc *doc, int node, uint8_t **all, size_t *total) {
+    size_t length = 0;
+    uint8_t *bytes = hex_bytes(doc, node, &length), *grown;
+    if (bytes == NULL) return -1;
+    grown = realloc(*all, *total + length + 1);
+    if (grown == NULL) {
+        free(bytes);
+        return -1;
+    }
+    memcpy(grown + *total, bytes, length);
+    *all = grown;
+    *total += length;
+    free(bytes);
+    return 0;
+}
+
+static int op_line_parse(output *out, const json_doc *doc, nurimc_line line) {
+    int chunks = json_member(doc, 0, "chunks"), bad = 0;
+    uint8_t *all = NULL;
+    size_t total = 0, dropped = 0;
+    line_collected c;
+    char number[32];
+    memset(&c, 0, sizeof c);
+    if (chunks < 0 || doc->nodes[chunks].type == JSON_NULL) {
+        bad = append_hex(doc, json_member(doc, 0, "hex"), &all, &total);
+    } else if (doc->nodes[chunks].type != JSON_ARRAY) {
+        bad = -1;
+    } else {
+        int chunk;
+        for (chunk = doc->nodes[chunks].first_child; chunk >= 0 && !bad; chunk = doc->nodes[chunk].next_sibling) {
+            bad = append_hex(doc, chunk, &all, &total);
+        }
+    }
+    if (bad) {
+        free(all);
+        return put_error(out, "bad_hex", NULL);
+    }
+    nurimc_line_scan(line, all, total, line_collect, &c, &dropped);
+    free(all);
+    put(out, "{\"frames\":[");
+    if (c.frames.text != NULL) put(out, c.frames.text);
+    snprintf(number, sizeof number, "%lu", (unsigned long)dropped);
     put(out, "],\"dropped_bytes\":");
     put(out, number);
     put(out, "}");
@@ -445,8 +611,19 @@ static void answer(output *out, char *line, size_t n) {
     } else if (doc.nodes[0].type != JSON_OBJECT) {
         put(out, "{\"error\":\"bad_request\",\"detail\":\"each line must be a JSON object\"}");
     } else {
+        int product_line;
         op = json_member(&doc, 0, "op");
-        if (json_string_is(&doc, op, "decode")) {
+        product_line = request_line(&doc);
+        if (product_line < 0 && (json_string_is(&doc, op, "decode") || json_string_is(&doc, op, "encode") ||
+                                 json_string_is(&doc, op, "parse"))) {
+            put_error(out, "unknown_line", NULL);
+        } else if (product_line != NURIMC_LINE_MC && json_string_is(&doc, op, "decode")) {
+            op_line_decode(out, &doc, (nurimc_line)product_line);
+        } else if (product_line != NURIMC_LINE_MC && json_string_is(&doc, op, "encode")) {
+            op_line_encode(out, &doc, (nurimc_line)product_line);
+        } else if (product_line != NURIMC_LINE_MC && json_string_is(&doc, op, "parse")) {
+            op_line_parse(out, &doc, (nurimc_line)product_line);
+        } else if (json_string_is(&doc, op, "decode")) {
             op_decode(out, &doc);
         } else if (json_string_is(&doc, op, "encode")) {
             op_encode(out, &doc);

@@ -29,6 +29,12 @@
 typedef enum nurimc_profile {
     NURIMC_PROFILE_MC,
     NURIMC_PROFILE_BLMC_H,
+    NURIMC_PROFILE_RSA,
+    NURIMC_PROFILE_RSAVW,
+    NURIMC_PROFILE_SA,
+    NURIMC_PROFILE_SM,
+    NURIMC_PROFILE_SM_CS,
+    NURIMC_PROFILE_SM_README,
     NURIMC_PROFILE_COUNT
 } nurimc_profile;
 #define NURIMC_DEFAULT_PROFILE NURIMC_PROFILE_MC
@@ -38,6 +44,12 @@ static inline uint32_t nurimc_profile_busy_window_us(nurimc_profile profile) {
     switch (profile) {
     case NURIMC_PROFILE_MC: return 300000u;
     case NURIMC_PROFILE_BLMC_H: return 300000u;
+    case NURIMC_PROFILE_RSA: return 300000u;
+    case NURIMC_PROFILE_RSAVW: return 300000u;
+    case NURIMC_PROFILE_SA: return 300000u;
+    case NURIMC_PROFILE_SM: return 300000u;
+    case NURIMC_PROFILE_SM_CS: return 300000u;
+    case NURIMC_PROFILE_SM_README: return 300000u;
     default: return 300000u;
     }
 }
@@ -47,6 +59,12 @@ static inline const char *nurimc_profile_name(nurimc_profile profile) {
     switch (profile) {
     case NURIMC_PROFILE_MC: return "mc";
     case NURIMC_PROFILE_BLMC_H: return "blmc-h";
+    case NURIMC_PROFILE_RSA: return "rsa";
+    case NURIMC_PROFILE_RSAVW: return "rsavw";
+    case NURIMC_PROFILE_SA: return "sa";
+    case NURIMC_PROFILE_SM: return "sm";
+    case NURIMC_PROFILE_SM_CS: return "sm-cs";
+    case NURIMC_PROFILE_SM_README: return "sm-readme";
     default: return NULL;
     }
 }
@@ -55,6 +73,12 @@ static inline const char *nurimc_profile_name(nurimc_profile profile) {
 static inline int nurimc_profile_by_name(const char *name) {
     if (name != NULL && strcmp(name, "mc") == 0) return (int)NURIMC_PROFILE_MC;
     if (name != NULL && strcmp(name, "blmc-h") == 0) return (int)NURIMC_PROFILE_BLMC_H;
+    if (name != NULL && strcmp(name, "rsa") == 0) return (int)NURIMC_PROFILE_RSA;
+    if (name != NULL && strcmp(name, "rsavw") == 0) return (int)NURIMC_PROFILE_RSAVW;
+    if (name != NULL && strcmp(name, "sa") == 0) return (int)NURIMC_PROFILE_SA;
+    if (name != NULL && strcmp(name, "sm") == 0) return (int)NURIMC_PROFILE_SM;
+    if (name != NULL && strcmp(name, "sm-cs") == 0) return (int)NURIMC_PROFILE_SM_CS;
+    if (name != NULL && strcmp(name, "sm-readme") == 0) return (int)NURIMC_PROFILE_SM_README;
     return -1;
 }
 

@@ -84,7 +84,12 @@ const fieldValue = (message: Message, field: string): unknown => (message as unk
 export function make<N extends MessageName>(name: N, id: number, fields: MessageFieldMap[N]): MessageOf<N>;
 export function make(name: string, id: unknown, fields: Readonly<Record<string, unknown>>): Message;
 export function make(name: string, id: unknown, fields: Readonly<Record<string, unknown>>): Message {
-  const spec = messageSpec(name);
+  return makeFromSpec(messageSpec(name), id, fields);
+}
+
+/** make() with a given spec (a product line's message, src/lines.ts). */
+export function makeFromSpec(spec: MessageSpec, id: unknown, fields: Readonly<Record<string, unknown>>): Message {
+  const name = spec.name;
   const wanted = spec.fields.map((f) => f.name);
   const listing = `(fields: ${wanted.join(", ") || "none"})`;
   for (const field of wanted) {
@@ -109,7 +114,11 @@ export function make(name: string, id: unknown, fields: Readonly<Record<string, 
 
 /** The whole frame of a message; throws EncodeError if the ID or a field is not a valid wire value. */
 export function encode(message: Message): Uint8Array {
-  const spec = messageSpec(message.name);
+  return encodeWithSpec(messageSpec(message.name), message);
+}
+
+/** encode() with a given spec (a product line's message, src/lines.ts). */
+export function encodeWithSpec(spec: MessageSpec, message: Message): Uint8Array {
   const id = checkId(spec, message.id);
   const data = new Uint8Array(spec.size - 2);
   let at = 0;
@@ -129,6 +138,11 @@ const hexByte = (b: number | undefined): string => (b ?? 0).toString(16).padStar
  * header, truncated, trailing, checksum, unknown_mode, size.
  */
 export function decode(frame: Uint8Array): Message {
+  return decodeWithModes(frame, BY_MODE);
+}
+
+/** decode() with a given mode table (a product line's, src/lines.ts). */
+export function decodeWithModes(frame: Uint8Array, byMode: ReadonlyMap<number, MessageSpec>): Message {
   const head = frame.subarray(0, 2);
   if ((head.length > 0 && head[0] !== HEADER_0) || (head.length > 1 && head[1] !== HEADER_1)) {
     throw new DecodeError("header", `frame must start with FF FE, got ${[...head].map(hexByte).join(" ")}`);
@@ -150,7 +164,7 @@ export function decode(frame: Uint8Array): Message {
       `checksum is ${hexByte(frame[CHECKSUM_OFFSET])}, the bytes give ${hexByte(expected)}`,
     );
   }
-  const spec = BY_MODE.get(frame[MODE_OFFSET] ?? -1);
+  const spec = byMode.get(frame[MODE_OFFSET] ?? -1);
   if (spec === undefined) throw new DecodeError("unknown_mode", `unknown mode ${hexByte(frame[MODE_OFFSET])}`);
   if (size !== spec.size) {
     throw new DecodeError(

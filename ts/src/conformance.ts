@@ -5,7 +5,7 @@ import { decode, encode, make, toRecord } from "./codec.js";
 import { DecodeError, EncodeError } from "./errors.js";
 import { fromHex } from "./frame.js";
 import { BadRequest, JsonFloat, type JsonValue, MAX_LINE_BYTES, readRequest } from "./jsonline.js";
-import { StreamParser } from "./parser.js";
+import { decodeIn, encodeIn, lineParser, lineRecord, lineSpec, makeIn, UnknownLineError } from "./lines.js";
 import { SETTINGS, setting, settingFromWire, settingToWire } from "./settings.js";
 import { arrivalToWire, fromWire, positionToWire, signedFromWire, speedToWire, UnitRangeError } from "./units.js";
 
@@ -25,17 +25,25 @@ function bytes(text: unknown): Uint8Array {
 const own = (object: Record<string, unknown>, key: string): unknown =>
   Object.hasOwn(object, key) ? object[key] : undefined;
 
+/** The request's product line ("line", spec/lines.json); MC when absent. */
+function lineOf(request: Record<string, unknown>): string {
+  const line = Object.hasOwn(request, "line") ? request.line : "mc";
+  return lineSpec(line).key;
+}
+
 function parse(request: Record<string, unknown>): Reply {
   const chunks = own(request, "chunks");
   let pieces: Uint8Array[];
   if (chunks === undefined || chunks === null) pieces = [bytes(own(request, "hex"))];
   else if (Array.isArray(chunks)) pieces = chunks.map(bytes);
   else throw new BadHex();
-  const parser = new StreamParser();
+  const line = lineOf(request);
+  const parser = lineParser(line);
+  const record = line === "mc" ? toRecord : (message: Parameters<typeof toRecord>[0]) => lineRecord(line, message);
   const frames: Reply[] = [];
   // One push per frame: spreading 100,000 frames into push() overflows the call stack.
-  for (const piece of pieces) for (const message of parser.feed(piece)) frames.push(toRecord(message));
-  for (const message of parser.finish()) frames.push(toRecord(message));
+  for (const piece of pieces) for (const message of parser.feed(piece)) frames.push(record(message));
+  for (const message of parser.finish()) frames.push(record(message));
   return { frames, dropped_bytes: parser.stats.droppedBytes };
 }
 
@@ -104,16 +112,24 @@ export function answer(request: unknown): Reply {
   const req = request as Record<string, unknown>;
   try {
     switch (own(req, "op")) {
-      case "decode":
-        return toRecord(decode(bytes(own(req, "hex"))));
+      case "decode": {
+        const line = lineOf(req);
+        const frame = bytes(own(req, "hex"));
+        return line === "mc" ? toRecord(decode(frame)) : lineRecord(line, decodeIn(line, frame));
+      }
       case "encode": {
+        const line = lineOf(req);
         for (const key of ["message", "id"])
           if (own(req, key) === undefined) return { error: "missing_field", field: key };
         const message = own(req, "message");
         if (typeof message !== "string") return { error: "unknown_message" };
         const fields = Object.create(null) as Record<string, unknown>;
         for (const key of Object.keys(req))
-          if (key !== "op" && key !== "id" && key !== "message") fields[key] = req[key];
+          if (key !== "op" && key !== "id" && key !== "message" && key !== "line") fields[key] = req[key];
+        if (line !== "mc") {
+          const frame = encodeIn(line, makeIn(line, message, own(req, "id"), fields));
+          return { hex: Buffer.from(frame).toString("hex") };
+        }
         return { hex: Buffer.from(encode(make(message, own(req, "id"), fields))).toString("hex") };
       }
       case "parse":
@@ -131,6 +147,7 @@ export function answer(request: unknown): Reply {
       return err.field === null ? { error: err.kind } : { error: err.kind, field: err.field };
     if (err instanceof BadHex) return { error: "bad_hex" };
     if (err instanceof UnitError) return { error: err.kind };
+    if (err instanceof UnknownLineError) return { error: err.kind };
     throw err;
   }
 }

@@ -5,7 +5,7 @@ export class ProtocolError extends Error {
   override name = "ProtocolError";
 }
 
-export type EncodeErrorKind = "unknown_message" | "missing_field" | "unknown_field" | "type" | "range";
+export type EncodeErrorKind = "unknown_message" | "missing_field" | "unknown_field" | "type" | "range" | "wrong_line";
 
 /** A message could not be built or encoded. `kind` is the conformance error name. */
 export class EncodeError extends ProtocolError {

@@ -14,6 +14,7 @@ export { buildFrame, checksum, fromHex, toHex } from "./frame.js";
 export * from "./generated/host.js";
 export * from "./generated/messages.js";
 export * from "./generated/tables.js";
+export * from "./lines.js";
 export * from "./motor.js";
 export * from "./parser.js";
 export { type WebSerialDevice, WebSerialPort } from "./ports/webserial.js";

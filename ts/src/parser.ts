@@ -44,6 +44,13 @@ export const emptyStats = (): ParserStats => ({
 /** Feed bytes, get messages. Never throws on garbage; memory stays bounded. */
 export class StreamParser {
   readonly stats: ParserStats = emptyStats();
+  /** The spec of each mode byte: MC's, or a product line's (src/lines.ts, `lineParser`). */
+  private readonly specOfMode: readonly (MessageSpec | undefined)[];
+
+  constructor(specOfMode: readonly (MessageSpec | undefined)[] = SPEC_OF_MODE) {
+    this.specOfMode = specOfMode;
+  }
+
   /** Held bytes, then room for the bytes of the next chunk that complete them. */
   private readonly buf = new Uint8Array(2 * MAX_FRAME_LENGTH);
   private length = 0;
@@ -124,7 +131,7 @@ export class StreamParser {
           continue;
         }
         if (avail >= 6) {
-          const spec = SPEC_OF_MODE[buf[pos + MODE_OFFSET] ?? 0];
+          const spec = this.specOfMode[buf[pos + MODE_OFFSET] ?? 0];
           if (spec === undefined || spec.size !== size) {
             if (spec === undefined) stats.unknownMode += 1;
             else stats.badSize += 1;

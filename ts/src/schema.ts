@@ -45,3 +45,13 @@ export interface ProductSpec {
   readonly maxRatedCurrent: number;
   readonly defaults: Readonly<Record<string, number>>;
 }
+
+/** A product line: which message each mode byte means (spec/lines.json). */
+export interface LineSpec {
+  readonly key: string;
+  readonly title: string;
+  readonly what: string;
+  readonly source: string;
+  readonly products: readonly string[];
+  readonly messages: readonly MessageSpec[];
+}

@@ -21,19 +21,32 @@ from .protocol import (
     BAUD_RATES,
     DEVICE_DEFAULTS,
     PROTOCOL,
+    Command,
     FactoryReset,
     RequestPing,
     SetBaud,
     SetControl,
     SetId,
     baud_index,
-    make_command,
-    make_request,
-    message_class,
+    product_line,
 )
 from .settings import SETTINGS, Setting, confirmed_answer
 
 BACKUP_FORMAT = backup_file.FORMAT
+
+
+def _in_line(core: BusCore, command: Command) -> Command:
+    """The command in the product line known for its ID (nurimc.products; MC if none is known):
+    the same setting has another mode in another line, and an SM's ID and baud codes are disputed."""
+    product = core.products.get(command.id, "mc")
+    target = product_line(product)
+    if target.key == "mc":
+        return command
+    if not target.has(command.name):
+        raise InputError(f"ID {command.id} is an {target.title}: its line has no {command.name}; nothing was sent")
+    converted = target.make(command.name, command.id, **command.fields())
+    assert isinstance(converted, Command)
+    return converted
 
 
 def answers(core: BusCore, device_id: int, window: float = 0.0) -> Procedure[bool]:
@@ -62,9 +75,12 @@ def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
         raise IdInUse(f"ID {new} already answers at {core.baudrate} bps; pick a free ID (see `nurimc scan`)")
     if not (yield from answers(core, old)):
         raise NoAnswer("request_ping", old, core.baudrate, core.retries + 1)
-    yield from core.tell(SetId(old, new))  # the core holds the next frame to either ID until the write is done
+    # the core holds the next frame to either ID until the write is done
+    yield from core.tell(_in_line(core, SetId(old, new)))
     if (yield from answers(core, new, VERIFY_WINDOW)):
         core.response_times.pop(old, None)
+        if old in core.products:  # its product line moves with it
+            core.products[new] = core.products.pop(old)
         return
     still_old = yield from answers(core, old)
     raise SettingNotApplied(
@@ -99,7 +115,7 @@ def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int)
     yield from core.check_rate(rate, f"ID {device_id} was not changed (at {rate} bps it would be out of reach)")
     if not (yield from answers(core, device_id)):
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
-    command = SetBaud(device_id, index)
+    command = _in_line(core, SetBaud(device_id, index))
     yield from core.tell(command)
     # The host's rate may change only once the frame has left the wire: a UART switched with
     # bytes still in its FIFO sends them at the new rate, and the controller never hears them.
@@ -127,16 +143,19 @@ def factory_reset(core: BusCore, device_id: int, confirm: bool = False) -> Proce
             f"factory reset of ID {device_id} erases every setting (it returns as ID 0 at 9600 bps); "
             "pass confirm=True (CLI: --yes) to do it"
         )
-    yield from core.tell(FactoryReset(device_id))  # busy window for the ID and for ID 0 (docs/protocol.md)
+    # busy window for the ID and for ID 0 (docs/protocol.md)
+    yield from core.tell(_in_line(core, FactoryReset(device_id)))
     core.response_times.pop(device_id, None)
+    if device_id in core.products and device_id != 0xFF:  # it comes back as ID 0, the same line
+        core.products[0] = core.products.pop(device_id)
 
 
 def recover_runaway(motor: MotorProcedures) -> Procedure[str]:
     """A motor that runs away (motor or encoder wired the other way round): release it and flip its
     control direction (the document's appendix). It is left released; re-enable with hold()."""
-    yield from motor.core.tell(SetControl(motor.id, 1))
+    yield from motor.core.tell(_in_line(motor.core, SetControl(motor.id, 1)))
     s = SETTINGS["direction"]
-    answer = yield from confirmed_answer(motor.core, make_request(s.request, motor.id))  # flip what it holds
+    answer = yield from confirmed_answer(motor.core, motor._request(s.request, s.name))  # flip what it holds
     flipped = "cw" if s.to_physical(answer.fields()[s.field]) == "ccw" else "ccw"
     yield from motor.set("direction", flipped)
     yield from motor.release()
@@ -183,22 +202,24 @@ def _restore_motor(motor: MotorProcedures, saved: dict[str, Any]) -> Procedure[l
     groups: dict[str, list[Setting]] = {}  # command -> the settings it writes
     for name in saved:
         s = SETTINGS.get(name)
-        if s is not None and s.command is not None and name != "control":  # control is left as it is (safety)
+        if s is None or not motor.line.has(s.command or ""):  # a setting its line lacks (docs/cli.md)
+            continue
+        if s.command is not None and name != "control":  # control is left as it is (safety)
             groups.setdefault(s.command, []).append(s)
     changed: list[str] = []
     for command_name, group in groups.items():
-        current = yield from confirmed_answer(motor.core, make_request(group[0].request, motor.id))
+        current = yield from confirmed_answer(motor.core, motor._request(group[0].request, group[0].name))
         now = current.fields()
         wanted = {s.field: s.to_wire(saved[s.name]) for s in group}
         differing = [s for s in group if now[s.field] != wanted[s.field]]
         if not differing:
             continue
-        spec = message_class(command_name).SPEC
+        spec = motor.line.message_class(command_name).SPEC
         fields = {
             f: wanted.get(f, now[f]) for f in spec.field_names
         }  # a field the backup lacks keeps its confirmed value
         first = differing[0]
-        yield from motor.write_verified(first, make_command(command_name, motor.id, **fields), wanted[first.field])
+        yield from motor.write_verified(first, motor._command(command_name, first.name, **fields), wanted[first.field])
         changed += [
             f"ID {motor.id} {s.name}: {s.to_physical(now[s.field])} -> {s.to_physical(wanted[s.field])}"
             for s in differing

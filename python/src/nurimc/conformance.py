@@ -16,7 +16,7 @@ from .client.core import BusCore
 from .errors import ValueOutOfRange
 from .motor import MotorProcedures
 from .multiturn import signed_degrees
-from .protocol import DecodeError, EncodeError, StreamParser, decode, make, units
+from .protocol import DecodeError, EncodeError, Line, StreamParser, UnknownLineError, line, units
 from .settings import SETTINGS
 
 MAX_LINE_BYTES = 4 * 1024 * 1024
@@ -118,6 +118,11 @@ def _bytes(text: object) -> bytes:
     return bytes.fromhex(text)
 
 
+def _line(request: dict[str, Any]) -> Line:
+    """The request's product line: "line" (spec/lines.json), MC when absent."""
+    return line(request["line"]) if "line" in request else line("mc")
+
+
 def _parse(request: dict[str, Any]) -> dict[str, Any]:
     chunks = request.get("chunks")
     if chunks is None:
@@ -126,7 +131,7 @@ def _parse(request: dict[str, Any]) -> dict[str, Any]:
         pieces = [_bytes(chunk) for chunk in chunks]
     else:
         raise ValueError("chunks is not a list")
-    parser = StreamParser()
+    parser = StreamParser(line=_line(request).key)
     frames = []
     for piece in pieces:
         frames += parser.feed(piece)
@@ -213,15 +218,16 @@ def answer(request: Any) -> dict[str, Any]:
     op = request.get("op")
     try:
         if op == "decode":
-            return decode(_bytes(request.get("hex"))).to_dict()
+            return _line(request).decode(_bytes(request.get("hex"))).to_dict()
         if op == "encode":
-            fields = {k: v for k, v in request.items() if k not in ("op", "id", "message")}
+            product_line = _line(request)
+            fields = {k: v for k, v in request.items() if k not in ("op", "id", "message", "line")}
             for key in ("message", "id"):
                 if key not in request:
                     return {"error": "missing_field", "field": key}
             if not isinstance(request["message"], str):
                 return {"error": "unknown_message"}
-            return {"hex": make(request["message"], request["id"], **fields).encode().hex()}
+            return {"hex": product_line.make(request["message"], request["id"], **fields).encode().hex()}
         if op == "parse":
             return _parse(request)
         if op == "to_wire":
@@ -230,6 +236,8 @@ def answer(request: Any) -> dict[str, Any]:
             return _from_wire(request)
     except _UnitError as err:
         return {"error": err.kind}
+    except UnknownLineError:
+        return {"error": "unknown_line"}
     except DecodeError as err:
         return {"error": err.kind}
     except EncodeError as err:

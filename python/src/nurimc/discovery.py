@@ -23,6 +23,7 @@ from .client.actions import Note, Procedure
 from .client.core import BusCore
 from .client.timing import MAX_RESPONSE_TIME
 from .errors import NoAnswer, RateRefused, UnexpectedAnswer
+from .products import detect_line
 from .protocol import BAUD_RATES, RequestFirmware, RequestPing
 
 # Most likely first: the default, then the usual fast rates, then the rest.
@@ -57,6 +58,7 @@ class Found:
     baudrate: int
     firmware: int | None
     collision: bool = False  # several controllers answer at this ID and rate
+    line: str = "unknown"  # product line by the vendor's rule (nurimc.products); "unknown" if none matched
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,7 +93,11 @@ def walk_wait(core: BusCore, span: float | None) -> float:
 
 
 def discover(
-    core: BusCore, rates: Iterable[int] | None = None, ids: Iterable[int] | None = None, broadcast: bool = True
+    core: BusCore,
+    rates: Iterable[int] | None = None,
+    ids: Iterable[int] | None = None,
+    broadcast: bool = True,
+    lines: bool = True,
 ) -> Procedure[list[Found]]:
     """Find controllers. Progress is reported as Note(Progress(...)) (and Note(RateSkipped(...))
     for a rate the port refuses). Leaves the bus at its old rate."""
@@ -135,15 +141,18 @@ def discover(
                     found.append(Found(device_id, rate, None, collision=True))
         result = []
         for f in found:  # firmware tells the user what answered; also confirms a find of the broadcast
-            if f.firmware is not None:
-                result.append(f)
-                continue
-            yield from core.set_baud(f.baudrate)
-            try:
-                answer = yield from core.ask(RequestFirmware(f.id))
-                result.append(Found(f.id, f.baudrate, answer.fields()["version"], f.collision))
-            except (NoAnswer, UnexpectedAnswer):
-                result.append(f)
+            if f.firmware is None or (lines and not f.collision):
+                yield from core.set_baud(f.baudrate)
+            if f.firmware is None:
+                try:
+                    answer = yield from core.ask(RequestFirmware(f.id))
+                    f = Found(f.id, f.baudrate, answer.fields()["version"], f.collision)
+                except (NoAnswer, UnexpectedAnswer):
+                    pass
+            if lines and not f.collision:  # each controller's product line (nurimc.products)
+                identified = yield from detect_line(core, f.id)
+                f = Found(f.id, f.baudrate, f.firmware, f.collision, identified.line)
+            result.append(f)
     except GeneratorExit:  # closed by its driver: no I/O possible any more (finally still runs)
         raise
     except BaseException as failure:  # an I/O error, a timeout or a cancellation thrown in (docs/drivers.md)

@@ -20,20 +20,11 @@ from .errors import InputError, NoAnswer, SettingNotApplied, ValueOutOfRange
 from .multiturn import TurnTracker, signed_degrees
 from .protocol import (
     PRODUCTS,
-    AccelPosition,
-    AccelSpeed,
     Command,
     Message,
-    PositionFeedback,
-    PositionSpeed,
     ProductSpec,
-    RequestPosition,
-    RequestSpeed,
-    SetControl,
-    SpeedFeedback,
-    make_command,
-    make_request,
-    message_class,
+    Request,
+    product_line,
     units,
 )
 from .protocol.host import BUSY_POLL_INTERVAL, LIMITS
@@ -64,6 +55,22 @@ def _direction(value: float) -> int:
     return 1 if value < 0 else 0
 
 
+def _unsupported(line: str, title: str, device_id: int, what: str, name: str) -> str:
+    """Why a product line cannot do something (docs/protocol.md, Product lines)."""
+    if line == "sm" and name in ("accel_speed", "set_speed_gains", "set_id", "set_baud", "set_response_time"):
+        return (
+            f"ID {device_id} is an SM whose table is not known: {what} needs {name}, whose code the vendor's "
+            "two SM tables disagree on (C# 01-05, README 03/05; under the C# table the README's 03 is 'set ID'); "
+            "give --product sm-cs or sm-readme (bus.motor(id, 'sm-cs')) once you know which it speaks"
+        )
+    if name in ("position_speed", "accel_position", "request_position", "request_position_mode"):
+        return (
+            f"ID {device_id} is an {title}, a speed-only motor: it has no position commands ({what}); "
+            "use run() or release()"
+        )
+    return f"ID {device_id} is an {title}: the {title} line has no {name} ({what}); nothing was sent"
+
+
 class MotorProcedures:
     """Everything a motor handle does, as procedures on a BusCore."""
 
@@ -74,10 +81,29 @@ class MotorProcedures:
         core.products[device_id] = product  # its busy window comes from this product's profile
         self.id = device_id
         self.profile: ProductSpec = PRODUCTS[product]
+        #: the product line's message table (spec/lines.json): every frame is built in it
+        self.line = product_line(product)
         self.tracker = TurnTracker()
         self._relative: bool | None = None  # position mode, read before the first move
 
     # -- builders (no I/O) --------------------------------------------------
+    def _message(self, name: str, what: str, **fields: int) -> Message:
+        """The line's message `name` for this ID, or InputError saying the line has none
+        (never another line's frame: the same mode byte means something else there)."""
+        if not self.line.has(name):
+            raise InputError(_unsupported(self.line.key, self.line.title, self.id, what, name))
+        return self.line.make(name, self.id, **fields)
+
+    def _command(self, name: str, what: str, **fields: int) -> Command:
+        message = self._message(name, what, **fields)
+        assert isinstance(message, Command)
+        return message
+
+    def _request(self, name: str, what: str) -> Request:
+        message = self._message(name, what)
+        assert isinstance(message, Request)
+        return message
+
     def make_move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Command:
         """Position command for a signed target (CCW +). Give rpm (§1) or arrival seconds (§2)."""
         if (rpm is None) == (seconds is None):
@@ -87,9 +113,15 @@ class MotorProcedures:
         if position > POSITION_WIRE_MAX:
             raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
         if rpm is not None:
-            return PositionSpeed(self.id, _direction(degrees), position, self._speed_wire("move", rpm))
+            speed = self._speed_wire("move", rpm)
+            return self._command(
+                "position_speed", "move", direction=_direction(degrees), position=position, speed=speed
+            )
         assert seconds is not None
-        return AccelPosition(self.id, _direction(degrees), position, self._seconds_wire(seconds))
+        arrival = self._seconds_wire(seconds)
+        return self._command(
+            "accel_position", "move", direction=_direction(degrees), position=position, arrival_time=arrival
+        )
 
     def make_run(self, rpm: float, ramp_seconds: float = 0.1) -> Command:
         """Speed command: signed RPM (CCW +), reached in ramp_seconds (§3)."""
@@ -97,10 +129,11 @@ class MotorProcedures:
             raise ValueOutOfRange(
                 "run", "rpm", rpm, "a non-zero speed (speed 0 is invalid: use release() or hold() to stop)"
             )
-        return AccelSpeed(self.id, _direction(rpm), self._speed_wire("run", abs(rpm)), self._seconds_wire(ramp_seconds))
+        speed, arrival = self._speed_wire("run", abs(rpm)), self._seconds_wire(ramp_seconds)
+        return self._command("accel_speed", "run", direction=_direction(rpm), speed=speed, arrival_time=arrival)
 
     def make_release(self) -> Command:
-        return SetControl(self.id, 1)
+        return self._command("set_control", "release", control=1)
 
     def _speed_wire(self, what: str, rpm: float) -> int:
         raw = units.rpm_to_wire(abs(rpm)) if math.isfinite(rpm) else 0
@@ -118,7 +151,7 @@ class MotorProcedures:
     # -- motion ---------------------------------------------------------------
     def _position_mode_is_relative(self) -> Procedure[bool]:
         if self._relative is None:
-            answer = yield from self.core.ask(make_request("request_position_mode", self.id))
+            answer = yield from self.core.ask(self._request("request_position_mode", "a position move"))
             self._relative = answer.fields()["position_mode"] == 1
         return self._relative
 
@@ -127,15 +160,15 @@ class MotorProcedures:
         busy window this starts (docs/protocol.md, Busy window, rule 5)."""
         released = self.core.control_released.get(self.id)
         if released is None:
-            answer = yield from self.core.ask(make_request("request_control", self.id))
+            answer = yield from self.core.ask(self._request("request_control", "control on/off"))
             released = answer.fields()["control"] == 1
             self.core.control_released.setdefault(self.id, released)
         if released:
-            yield from self.core.tell(SetControl(self.id, 0))
+            yield from self.core.tell(self._command("set_control", "control on", control=0))
 
     def move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Procedure[None]:
         """Go to an absolute signed position (in the device's frame, ±655.33 deg)."""
-        command = self.make_move_to(degrees, rpm, seconds)
+        command = self.make_move_to(degrees, rpm, seconds)  # refused before any I/O on a speed-only line
         if (yield from self._position_mode_is_relative()):
             state = yield from self.read_state()
             command = self.make_move_to(degrees - state.device_position, rpm, seconds)
@@ -144,6 +177,7 @@ class MotorProcedures:
 
     def move_by(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Procedure[None]:
         """Move by a signed amount from where the motor is."""
+        self.make_move_to(degrees, rpm, seconds)  # checks the line has position commands, before any I/O
         if (yield from self._position_mode_is_relative()):
             command = self.make_move_to(degrees, rpm, seconds)
         else:
@@ -163,7 +197,9 @@ class MotorProcedures:
 
     def hold(self) -> Procedure[None]:
         """Control on, holding the present position."""
-        yield from self.core.tell(SetControl(self.id, 0))
+        if not self.line.has("position_speed"):  # a speed-only line (SM): nothing to hold a position with
+            raise InputError(_unsupported(self.line.key, self.line.title, self.id, "hold", "position_speed"))
+        yield from self.core.tell(self._command("set_control", "hold", control=0))
         if (yield from self._position_mode_is_relative()):
             return
         state = yield from self.read_state()
@@ -171,47 +207,68 @@ class MotorProcedures:
 
     # -- feedback -------------------------------------------------------------
     def state_from(self, answer: Message) -> MotorState:
-        """A MotorState from a position feedback answer (also used by group reads)."""
-        assert isinstance(answer, PositionFeedback)
-        device = signed_degrees(answer.direction, units.from_wire(answer.position, 0.01))
+        """A MotorState from a position feedback answer (also used by group reads), or, on a
+        line without one (SM), from a speed feedback answer: position in its 0.1 deg, speed signed."""
+        f = answer.fields()
+        if answer.name == "speed_feedback":
+            device = signed_degrees(f["direction"], units.from_wire(f["position"], 0.1))
+            speed = signed_degrees(f["direction"], units.from_wire(f["speed"], 0.1))
+        else:
+            assert answer.name == "position_feedback", answer
+            device = signed_degrees(f["direction"], units.from_wire(f["position"], 0.01))
+            speed = units.from_wire(f["speed"], 0.1)
         return MotorState(
             id=self.id,
             position=self.tracker.update(device),
             device_position=device,
-            speed=units.from_wire(answer.speed, 0.1),
-            current=units.from_wire(answer.current, 0.1),
-            direction="cw" if answer.direction == 1 else "ccw",
+            speed=speed,
+            current=units.from_wire(f["current"], 0.1),
+            direction="cw" if f["direction"] == 1 else "ccw",
         )
 
     def read_state(self) -> Procedure[MotorState]:
-        answer = yield from self.core.ask(RequestPosition(self.id))
+        """Position feedback (§19); a speed-only line (SM) has none and reads its speed feedback."""
+        name = "request_position" if self.line.has("request_position") else "request_speed"
+        answer = yield from self.core.ask(self._request(name, "a reading"))
         return self.state_from(answer)
 
     def read_speed(self) -> Procedure[float]:
         """Signed speed in RPM (CCW +) from speed feedback (§20)."""
-        answer = yield from self.core.ask(RequestSpeed(self.id))
-        assert isinstance(answer, SpeedFeedback)
-        return signed_degrees(answer.direction, units.from_wire(answer.speed, 0.1))
+        answer = yield from self.core.ask(self._request("request_speed", "a speed reading"))
+        f = answer.fields()
+        return signed_degrees(f["direction"], units.from_wire(f["speed"], 0.1))
 
     def ping(self) -> Procedure[bool]:
-        yield from self.core.ask(make_request("request_ping", self.id))
+        yield from self.core.ask(self._request("request_ping", "ping"))
         return True
+
+    def _setting(self, name: str, write: bool = False) -> Setting:
+        """A setting this line can read (and, with `write`, write), or InputError."""
+        s = setting(name)
+        missing = s.request if not self.line.has(s.request) else None
+        if write and missing is None and s.command is not None and not self.line.has(s.command):
+            missing = s.command
+        if missing is not None:
+            raise InputError(_unsupported(self.line.key, self.line.title, self.id, f"the {s.name} setting", missing))
+        return s
 
     # -- settings -------------------------------------------------------------
     def get(self, name: str) -> Procedure[float | int | str]:
-        s = setting(name)
-        answer = yield from self.core.ask(make_request(s.request, self.id))
+        s = self._setting(name)
+        answer = yield from self.core.ask(self._request(s.request, s.name))
         raw = answer.fields()[s.field]
         self._remember(s, raw)
         return s.to_physical(raw)
 
     def read_settings(self) -> Procedure[dict[str, float | int | str]]:
-        """Every setting, reading each feedback request once."""
+        """Every setting the product line has, reading each feedback request once."""
         answers: dict[str, Message] = {}
         out: dict[str, float | int | str] = {}
         for s in SETTINGS.values():
+            if not self.line.has(s.request):
+                continue  # e.g. an RSA has no rated speed, an SM no position gains
             if s.answer not in answers:
-                answers[s.answer] = yield from self.core.ask(make_request(s.request, self.id))
+                answers[s.answer] = yield from self.core.ask(self._request(s.request, s.name))
             raw = answers[s.answer].fields()[s.field]
             self._remember(s, raw)
             out[s.name] = s.to_physical(raw)
@@ -219,7 +276,7 @@ class MotorProcedures:
 
     def set(self, name: str, value: object) -> Procedure[float | int | str]:
         """Write a setting in physical units and verify it by reading it back."""
-        s = setting(name)
+        s = self._setting(name, write=True)
         if s.command is None:
             raise InputError(f"{s.name} is read-only")
         raw = s.to_wire(value)
@@ -228,10 +285,10 @@ class MotorProcedures:
                 s.name, "value", value, f"0.1..{self.profile.max_rated_current / 10} A for {self.profile.title}"
             )
         fields = {s.field: raw}
-        if len(message_class(s.command).SPEC.fields) > 1:  # gains: written together, from a confirmed read
-            current = yield from confirmed_answer(self.core, make_request(s.request, self.id))
+        if len(self.line.message_class(s.command).SPEC.fields) > 1:  # gains: written together, from a confirmed read
+            current = yield from confirmed_answer(self.core, self._request(s.request, s.name))
             fields = {**current.fields(), s.field: raw}
-        yield from self.write_verified(s, make_command(s.command, self.id, **fields), raw)
+        yield from self.write_verified(s, self._command(s.command, s.name, **fields), raw)
         return s.to_physical(raw)
 
     def write_verified(self, s: Setting, command: Command, raw: int) -> Procedure[None]:
@@ -246,7 +303,7 @@ class MotorProcedures:
         give_up: float | None = None
         while True:
             try:
-                answer = yield from self.core.ask(make_request(s.request, self.id), retries=0)
+                answer = yield from self.core.ask(self._request(s.request, s.name), retries=0)
                 got = answer.fields()[s.field]
                 wrong = fields_differ(command, answer)
                 if not wrong:

@@ -17,8 +17,8 @@ from .protocol import HEADER, Message
 from .protocol._tables import MAX_SIZE
 from .protocol.codec import decode_valid
 from .protocol.frame import CHECKSUM_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
+from .protocol.lines import line as line_named
 from .protocol.message import Answer
-from .protocol.messages import BY_MODE
 
 _FF = HEADER[0]
 
@@ -46,7 +46,10 @@ Event = SniffedFrame | Rejected
 class ExplainingParser:
     """Feed bytes, get SniffedFrame and Rejected events in stream order. Never raises; bounded memory."""
 
-    def __init__(self) -> None:
+    def __init__(self, line: str = "mc") -> None:
+        # the product line whose table reads the frames (spec/lines.json)
+        self._by_mode = line_named(line).by_mode
+        self._what = "an MC / BLMC-H message" if line == "mc" else f"a message of the {line_named(line).title} line"
         self._buf = bytearray()
         self._noise = bytearray()  # skipped bytes not yet reported
         self._covered = 0  # bytes at the buffer's start already reported as part of a candidate
@@ -121,9 +124,9 @@ class ExplainingParser:
         if have < 6:
             return (have, "a frame cut short") if final else None
         mode = buf[pos + MODE_OFFSET]
-        cls = BY_MODE.get(mode)
+        cls = self._by_mode.get(mode)
         if cls is None:
-            return 6, f"unknown mode 0x{mode:02X}: not an MC / BLMC-H message"
+            return 6, f"unknown mode 0x{mode:02X}: not {self._what}"
         if cls.SPEC.size != size:
             return 6, f"wrong size {size} for {cls.SPEC.name} (mode 0x{mode:02X} has size {cls.SPEC.size})"
         end = pos + size + 4

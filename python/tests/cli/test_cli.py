@@ -46,7 +46,8 @@ def pty() -> Iterator[tuple[SimBus, str]]:
 def test_scan_finds_every_controller(pty) -> None:  # type: ignore[no-untyped-def]
     found = ok_json("scan", "--rates", "9600,115200", port=pty[1])
     assert sorted((f["id"], f["baud"]) for f in found) == [(1, 9600), (2, 9600), (7, 115200)]
-    assert set(found[0]) == {"id", "baud", "firmware", "collision", "product_guess"}
+    assert set(found[0]) == {"id", "baud", "firmware", "collision", "line", "product_guess"}
+    assert {f["line"] for f in found} == {"mc"}
     table = cli("scan", "--rates", "9600", port=pty[1])
     assert table.returncode == 0 and "2 controller(s) found" in table.stdout
 
@@ -54,7 +55,8 @@ def test_scan_finds_every_controller(pty) -> None:  # type: ignore[no-untyped-de
 def test_ping_and_status(pty) -> None:  # type: ignore[no-untyped-def]
     assert ok_json("--id", "1", "ping", port=pty[1])["ok"] is True  # type: ignore[index]
     status = ok_json("--id", "1", "status", port=pty[1])
-    assert set(status) == {"id", "baud", "state", "settings"}  # type: ignore[arg-type]
+    assert set(status) == {"id", "baud", "line", "product", "state", "settings"}  # type: ignore[arg-type]
+    assert status["line"] == "mc"  # type: ignore[index]
     assert status["settings"]["rated-speed"] == 3000  # type: ignore[index]
     assert set(status["state"]) == {"position_deg", "device_position_deg", "speed_rpm", "current_a", "direction"}  # type: ignore[index]
     text = cli("--id", "7", "--baud", "115200", "status", port=pty[1])

@@ -24,13 +24,13 @@ from nurimc.protocol import (
     RequestFirmware,
     RequestPing,
     RequestPosition,
+    SetBaud,
     SetControl,
     SetId,
     baud_index,
     build_frame,
     decode,
 )
-from nurimc.protocol import SetBaud
 
 from .stepping import Stepper
 
@@ -50,7 +50,7 @@ def broken(frame: bytes) -> bytes:
 # -- discovery -----------------------------------------------------------------------------
 def test_discovery_pings_each_rate_once_confirms_and_returns_to_the_old_rate() -> None:
     core = bus_core(57600)
-    s = Stepper(discover(core, rates=[115200, 9600]))
+    s = Stepper(discover(core, rates=[115200, 9600], lines=False))
     assert s.baud() == 9600  # the most likely rate first, whatever order was given
     assert s.notes == [Progress(9600, 0, 2, None, ())]
     assert s.sent() == BROADCAST_PING
@@ -72,7 +72,7 @@ def test_discovery_pings_each_rate_once_confirms_and_returns_to_the_old_rate() -
 
 def test_discovery_walks_ids_only_where_answers_collide_at_the_pace_the_broadcast_measured() -> None:
     core = bus_core(9600)
-    s = Stepper(discover(core, rates=[9600]))
+    s = Stepper(discover(core, rates=[9600], lines=False))
     s.baud()
     assert s.sent() == BROADCAST_PING
     s.clock += 0.0075  # the garble ends 7.5 ms after the broadcast was written
@@ -151,20 +151,20 @@ def play_discovery(s: Stepper[list[Found]], core: BusCore, limit: int | None = N
 @pytest.mark.parametrize("failure", [OSError("port gone"), CallTimeout("took too long"), KeyboardInterrupt()])
 def test_a_failure_thrown_in_at_any_bus_action_of_discovery_restores_the_rate(failure: BaseException) -> None:
     core = bus_core(57600)
-    whole = Stepper(discover(core, rates=[9600, 115200]))
+    whole = Stepper(discover(core, rates=[9600, 115200], lines=False))
     kinds = play_discovery(whole, core)
     assert whole.result() == [Found(5, 9600, 1)]
     assert kinds == [SetHostBaud, Send, SetHostBaud, Send, SetHostBaud, Send, SetHostBaud]
     for index in range(len(kinds) - 1):  # the last action is the return to the old rate itself
         core = bus_core(57600)
-        s = Stepper(discover(core, rates=[9600, 115200]))
+        s = Stepper(discover(core, rates=[9600, 115200], lines=False))
         play_discovery(s, core, index)
         s.fail(failure)
         assert s.expect(SetHostBaud) == SetHostBaud(57600), index  # the only thing left to do: go back
         with pytest.raises(type(failure)):
             s.baud()
         assert core.baudrate == 57600 and core.timing is TIMING
-    s = Stepper(discover(core, rates=[9600, 115200]))
+    s = Stepper(discover(core, rates=[9600, 115200], lines=False))
     play_discovery(s, core, len(kinds) - 1)
     with pytest.raises(type(failure)):  # the switch back itself failed: nothing left to try
         s.fail(failure)
@@ -175,7 +175,7 @@ def test_a_port_that_stays_dead_reports_the_first_failure_and_the_old_rate() -> 
     # failure (with a note that the host could not go back), and the bus's rate is the old one,
     # which is also what the port was last told (host and port agree)
     core = bus_core(57600)
-    s = Stepper(discover(core, rates=[9600, 115200]))
+    s = Stepper(discover(core, rates=[9600, 115200], lines=False))
     play_discovery(s, core, 3)  # at 115,200 bps, mid-scan
     first = OSError("port gone")
     s.fail(first)

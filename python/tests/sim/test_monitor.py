@@ -70,7 +70,7 @@ def test_monitor_pty_with_plain_pyserial(tmp_path: Path) -> None:
 
 
 def test_verbose_log_says_why_frames_were_not_taken(caplog: pytest.LogCaptureFixture) -> None:
-    _, host = fake_bus([1], eeprom_time=1.0)
+    _, host = fake_bus([1], eeprom_time=1.0, speed_zero="ignore")  # the document's reading of speed 0
     caplog.set_level(logging.DEBUG, logger="nurimc.sim")
     bad = bytearray(frame(1, 0xA0))
     bad[4] ^= 1
@@ -94,6 +94,17 @@ def test_verbose_log_says_why_frames_were_not_taken(caplog: pytest.LogCaptureFix
         "no controller listens at that rate",
     ):
         assert reason in text, reason
+
+
+def test_verbose_log_says_motion_is_dropped_while_control_is_off(caplog: pytest.LogCaptureFixture) -> None:
+    bus, host = fake_bus([1])
+    caplog.set_level(logging.DEBUG, logger="nurimc.sim")
+    host.write(frame(1, 0x0C, bytes([1])))  # control off
+    host.write(frame(1, 0x03, bytes([0, 0x03, 0xE8, 10])))  # run at 100 RPM: not obeyed
+    host.clock.t += 0.5
+    bus.advance()
+    assert "ignores AccelSpeed(id=1, direction=0, speed=1000, arrival_time=10): control is off" in caplog.text
+    assert bus.controller(1).servo.motor.speed == 0.0
 
 
 def test_verbose_log_names_the_rate_of_an_id_addressed_at_the_wrong_one(caplog: pytest.LogCaptureFixture) -> None:

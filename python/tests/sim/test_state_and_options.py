@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -65,9 +66,9 @@ def test_a_missing_setting_or_product_is_refused(tmp_path: Path) -> None:
     (state / "bus.json").write_text(json.dumps(data))
     with pytest.raises(StateError, match="field 'ratio' is missing"):
         SimBus(state_dir=state)
-    data["controllers"][0] = {"product": "rsa", "settings": {}}
+    data["controllers"][0] = {"product": "warp", "settings": {}}
     (state / "bus.json").write_text(json.dumps(data))
-    with pytest.raises(StateError, match="'product' is 'rsa'"):
+    with pytest.raises(StateError, match="'product' is 'warp'"):
         SimBus(state_dir=state)
 
 
@@ -147,13 +148,14 @@ def test_sim_url_ids_1_is_the_controller_at_id_1() -> None:
 
 def test_speed_zero_rule_from_a_profile_file_or_an_option(tmp_path: Path) -> None:
     spec = json.loads((Path(__file__).parents[3] / "spec" / "profiles.json").read_text())
-    spec["profiles"]["mc"]["speed_zero"] = "stop"
+    spec["profiles"]["mc"]["speed_zero"] = "ignore"
     spec["profiles"]["mc"]["factory_defaults"]["position_kp"] = 77
     path = tmp_path / "profiles.json"
     path.write_text(json.dumps(spec))
     profiles = load_profiles(path)
-    assert profiles["mc"].speed_zero == "stop" and profiles["blmc-h"].speed_zero == "ignore"
-    for bus in (SimBus(profiles=profiles, eeprom_time=0.0), SimBus(speed_zero="stop", eeprom_time=0.0)):
+    assert profiles["mc"].speed_zero == "ignore" and profiles["blmc-h"].speed_zero == "stop"  # stop: the default
+    stopping = dict(profiles, mc=replace(profiles["mc"], speed_zero="stop"))
+    for bus in (SimBus(profiles=stopping, eeprom_time=0.0), SimBus(speed_zero="stop", eeprom_time=0.0)):
         bus.add_controller(1)
         port = bus.open_serial(timeout=0.3)
         command(port, 1, "set_resolution", u16(1000))
@@ -174,7 +176,7 @@ def test_speed_zero_rule_from_a_profile_file_or_an_option(tmp_path: Path) -> Non
     ("content", "error"),
     [
         ('{"profiles": {"mc": {"speed_zero": "brake"}}}', "speed_zero is 'brake'"),
-        ('{"profiles": {"rsa": {}}}', "unknown product 'rsa'"),
+        ('{"profiles": {"warp": {}}}', "unknown product 'warp'"),
         ('{"profiles": {"mc": {"factory_defaults": {"position_kp": 0}}}}', "position_kp: 'position_kp': 0"),
         ('{"profiles": {"mc": {"busy_window_s": -1}}}', "busy_window_s is -1"),
         ("[1]", "no 'profiles' object"),

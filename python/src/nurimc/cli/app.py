@@ -21,7 +21,7 @@ import typer.main
 
 from .. import __version__
 from ..errors import NurimcError
-from ..protocol import ProtocolError
+from ..protocol import PRODUCTS, ProtocolError
 from ..sim.store import StateError
 from .common import (
     CLICK_ERROR,
@@ -84,7 +84,11 @@ def main_options(
     ids: str = typer.Option(None, "--id", "-i", envvar="NURIMC_ID", help="Controller ID(s): 1 or 1,2,5 or 0-3."),
     json_output: bool = typer.Option(False, "--json", help="Machine-readable output: one JSON document on stdout."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Also print every frame sent and received (stderr)."),
-    product: str = typer.Option("mc", "--product", help="Product profile: mc or blmc-h."),
+    product: str = typer.Option(
+        None,
+        "--product",
+        help="Product: mc, blmc-h, rsa, rsavw, sa, sm, sm-cs, sm-readme (default: the line the controller answers as).",
+    ),
     rs485: bool = typer.Option(
         False, "--rs485", envvar="NURIMC_RS485", help="Drive the RS485 direction with RTS (no auto-direction adapter)."
     ),
@@ -95,9 +99,10 @@ def main_options(
         False, "--version", is_eager=True, callback=lambda shown: _print_version(shown), help="Print the version."
     ),
 ) -> None:
-    if product not in ("mc", "blmc-h"):
-        raise InputBadParameter(f"--product: {product!r} is not a product; use mc or blmc-h")
-    ctx.obj = Options(port, check_baud(baud), parse_ids(ids), json_output, verbose, product)
+    if product is not None and product not in PRODUCTS:
+        raise InputBadParameter(f"--product: {product!r} is not a product; use one of {', '.join(PRODUCTS)}")
+    ctx.obj = Options(port, check_baud(baud), parse_ids(ids), json_output, verbose, product or "mc")
+    ctx.obj.product_given = product is not None
     ctx.obj.rs485 = rs485 or rs485_invert
     ctx.obj.rs485_invert = rs485_invert
     _invoked[:] = [ctx.invoked_subcommand or ""]

@@ -20,6 +20,8 @@ from rich.text import Text
 from ..client.sync import Bus
 from ..errors import InputError
 from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
+from ..motor import Motor
+from ..products import detect_line
 from ..protocol import BAUD_RATES, StreamParser
 from ..transport import RS485
 
@@ -52,6 +54,7 @@ class Options:
     json: bool = False
     verbose: bool = False
     product: str = "mc"
+    product_given: bool = False  # --product was given; else a command asks the controller its line
     rs485: bool = False  # RS485 direction control (docs/troubleshooting.md)
     rs485_invert: bool = False
 
@@ -181,6 +184,23 @@ def open_bus(o: Options, reconnect: bool = False) -> Bus:
     if warning:
         err.print(Text.assemble(("warning:", "yellow"), " ", one_line(warning)), soft_wrap=True)
     return bus
+
+
+def motor_for(bus: Bus, o: Options, device_id: int, *, acts: bool = True) -> Motor:
+    """The motor handle of a command in its product line: --product if given, else the line the
+    controller answers as (nurimc.products). A command that acts is refused when the line cannot
+    be told (the same bytes mean other commands in other lines); a read goes ahead as MC."""
+    if o.product_given:
+        return bus.motor(device_id, o.product)
+    if device_id not in bus.core.products:
+        identified = bus.run(detect_line(bus.core, device_id))
+        if identified.line == "unknown" and acts:
+            fail(
+                f"ID {device_id} at {bus.baudrate} bps answers none of the questions that tell product lines apart "
+                "(or does not answer): give --product (mc, blmc-h, rsa, rsavw, sa, sm-cs, sm-readme)",
+                EXIT_USAGE,
+            )
+    return bus.motor(device_id)
 
 
 def one_id(o: Options) -> int:

@@ -19,9 +19,10 @@ from ..inputs import UNIT_SHOWN, with_unit
 from ..journal import RestoreJournal, incomplete_message
 from ..motor import MotorState
 from ..outage import OutageGuard, stderr_line
+from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
-from .common import STOP, Number, check_baud, emit, err, fail, one_id, open_bus, options, parse_ids, table
+from .common import STOP, Number, check_baud, emit, err, fail, motor_for, one_id, open_bus, options, parse_ids, table
 from .common import note as tell_note
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
@@ -65,11 +66,16 @@ def scan(
         guesses = {}
         for f in found:
             bus.baudrate = f.baudrate
-            guesses[(f.id, f.baudrate)] = product_guess(bus, f.id) if not f.collision else "?"
-    rows = table(f"{len(found)} controller(s) found", "ID", "baud", "firmware", "product (guess)", "note")
+            guess = "?"
+            if not f.collision and f.line == "mc":  # only MC has a resolution to tell BLMC-H by
+                guess = product_guess(bus, f.id)
+            elif not f.collision:
+                guess = f.line
+            guesses[(f.id, f.baudrate)] = guess
+    rows = table(f"{len(found)} controller(s) found", "ID", "baud", "firmware", "line", "product (guess)", "note")
     for f in found:
-        note = "several controllers share this ID" if f.collision else ""
-        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), guesses[(f.id, f.baudrate)], note)
+        note = "several controllers share this ID" if f.collision else DESCRIPTIONS.get(f.line, "")
+        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), f.line, guesses[(f.id, f.baudrate)], note)
     emit(
         o,
         [
@@ -78,6 +84,7 @@ def scan(
                 "baud": f.baudrate,
                 "firmware": f.firmware,
                 "collision": f.collision,
+                "line": f.line,
                 "product_guess": guesses[(f.id, f.baudrate)],
             }
             for f in found
@@ -126,12 +133,13 @@ def _state_dict(state: MotorState) -> dict[str, Any]:
     }
 
 
-def _state_rows(state: MotorState) -> list[tuple[str, str]]:
-    """The reading, each row with its unit; names that cannot be taken for a setting's."""
+def _state_rows(state: MotorState, speed_only: bool = False) -> list[tuple[str, str]]:
+    """The reading, each row with its unit; names that cannot be taken for a setting's.
+    A speed-only line (SM) reads its speed feedback: the speed is signed, the position in 0.1°."""
     return [
-        ("position", with_unit(state.position, "°")),
+        ("position", with_unit(state.position, "°") + (" (0.1° steps, from speed feedback)" if speed_only else "")),
         ("device position", with_unit(state.device_position, "°")),
-        ("speed", with_unit(state.speed, "RPM")),
+        ("speed", with_unit(state.speed, "RPM") + (" (signed, CCW +)" if speed_only else "")),
         ("current", with_unit(state.current, "A")),
         ("position sign", f"{state.direction} (the side of zero the device reports)"),
     ]
@@ -151,20 +159,29 @@ def status(ctx: typer.Context) -> None:
     o = options(ctx)
     device_id = one_id(o)
     with open_bus(o) as bus:
-        motor = bus.motor(device_id, o.product)
+        motor = motor_for(bus, o, device_id, acts=False)
         state = motor.read_state()
         settings = motor.read_settings()
     unfinished = RestoreJournal(o.port or os.environ.get("NURIMC_PORT", "")).pending(device_id)
     if unfinished is not None:  # the settings below are part old, part restored (docs/cli.md)
         err.print(f"warning: {incomplete_message(unfinished)}", soft_wrap=True, markup=False)
-    rows = table(f"ID {device_id} at {o.baud} bps", "reading", "value")
-    for key, text in _state_rows(state):
+    line = motor.procedures.line
+    product = motor.procedures.profile.key
+    rows = table(f"ID {device_id} at {o.baud} bps: {line.title} ({product})", "reading", "value")
+    for key, text in _state_rows(state, speed_only=not line.has("request_position")):
         rows.add_row(key, text)
     rows.add_section()
     rows.add_row("[bold]setting[/]", "")
     for key, value in settings.items():
         rows.add_row(f"{key}", _setting_text(key, value))
-    document = {"id": device_id, "baud": o.baud, "state": _state_dict(state), "settings": settings}
+    document = {
+        "id": device_id,
+        "baud": o.baud,
+        "line": line.key,
+        "product": product,
+        "state": _state_dict(state),
+        "settings": settings,
+    }
     emit(o, {**document, "incomplete_restore": unfinished} if unfinished else document, rows)
 
 

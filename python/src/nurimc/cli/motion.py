@@ -7,7 +7,7 @@ from typing import Any
 import typer
 
 from ..protocol.host import LIMITS
-from .common import Number, emit, fail, one_id, open_bus, options
+from .common import Number, emit, fail, motor_for, one_id, open_bus, options
 
 POSITION = LIMITS["position_deg"]
 RPM_MIN, RPM_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
@@ -48,7 +48,7 @@ def move(
     if rpm is None and seconds is None:
         rpm = 30.0  # a gentle default
     with open_bus(o) as bus:
-        motor = bus.motor(one_id(o), o.product)
+        motor = motor_for(bus, o, one_id(o))
         (motor.move_by if by else motor.move_to)(degrees, rpm=rpm, seconds=seconds)
     what = f"by {degrees}°" if by else f"to {degrees}°"
     how = f"at {rpm} RPM" if rpm is not None else f"in {seconds} s"
@@ -76,7 +76,7 @@ def run(
     if abs(rpm) < RPM_MIN:
         fail(f"rpm: {rpm} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way (to stop: release)")
     with open_bus(o) as bus:
-        bus.motor(one_id(o), o.product).run(rpm, ramp)
+        motor_for(bus, o, one_id(o)).run(rpm, ramp)
     emit(o, {"id": o.ids[0], "rpm": rpm, "ramp_s": ramp}, f"ID {o.ids[0]}: running at {rpm} RPM")
 
 
@@ -87,7 +87,7 @@ def release(ctx: typer.Context) -> None:
     """
     o = options(ctx)
     with open_bus(o) as bus:
-        bus.motor(one_id(o), o.product).release()
+        motor_for(bus, o, one_id(o)).release()
     emit(o, {"id": o.ids[0], "control": "off"}, f"ID {o.ids[0]}: released (control off)")
 
 
@@ -98,7 +98,7 @@ def hold(ctx: typer.Context) -> None:
     """
     o = options(ctx)
     with open_bus(o) as bus:
-        bus.motor(one_id(o), o.product).hold()
+        motor_for(bus, o, one_id(o)).hold()
     emit(o, {"id": o.ids[0], "control": "on"}, f"ID {o.ids[0]}: holding")
 
 

@@ -133,8 +133,10 @@ class AsyncBus:
     async def send(self, *commands: Command) -> None:
         await self.run(self.core.tell(*commands))
 
-    def motor(self, device_id: int, product: str = "mc") -> AsyncMotor:
-        return AsyncMotor(self, device_id, product)
+    def motor(self, device_id: int, product: str | None = None) -> AsyncMotor:
+        """A handle for one controller. Without `product`: the product line discovery found for the
+        ID on this bus (nurimc.products), else MC."""
+        return AsyncMotor(self, device_id, product or self.core.products.get(device_id, "mc"))
 
     async def close(self) -> None:
         async with self._lock:

@@ -14,19 +14,16 @@ from ..errors import ControllerBusy, CorruptedAnswer, NoAnswer, RateRefused, Une
 from ..protocol import (
     BROADCAST_ID,
     Command,
-    FactoryReset,
     Message,
     Ping,
     Request,
     RequestFirmware,
     RequestPing,
-    SetControl,
-    SetId,
     StreamParser,
     answer_class,
     build_frame,
 )
-from ..protocol.host import LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window, writes_eeprom
+from ..protocol.host import EEPROM_WRITES, LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window
 from .actions import Discard, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
 from .timing import Timing
 
@@ -133,16 +130,18 @@ class BusCore:
     def _mark_busy(self, commands: Sequence[Command], sent: Sent, nbytes: int) -> None:
         end = sent.finished + self.timing.wire_time(nbytes, self.baudrate) + self.timing.latency
         for command in commands:
-            if isinstance(command, SetControl):
-                self._note_control(command.id, command.control == 1)
-            if not writes_eeprom(command.SPEC.mode):
+            name = command.name  # by name: the same message has another mode in another line
+            if name == "set_control":
+                self._note_control(command.id, command.fields()["control"] == 1)
+            if name not in EEPROM_WRITES:
                 continue
             ids = [command.id]
-            if isinstance(command, SetId):
-                ids.append(command.new_id)
+            if name == "set_id":
+                new_id = command.fields()["new_id"]
+                ids.append(new_id)
                 if command.id in self.control_released:
-                    self.control_released[command.new_id] = self.control_released.pop(command.id)
-            elif isinstance(command, FactoryReset) and command.id != BROADCAST_ID:
+                    self.control_released[new_id] = self.control_released.pop(command.id)
+            elif name == "factory_reset" and command.id != BROADCAST_ID:
                 ids.append(0)  # it comes back as ID 0
                 self.control_released.pop(command.id, None)
             for device_id in ids:
@@ -334,7 +333,7 @@ class BusCore:
             first_sent = sent.started if first_sent is None else first_sent
             self.stats.requests += 1
             self._owe(rid, cls, sent.finished + deadline + self.late_answer)
-            parser = StreamParser()
+            parser = StreamParser(line=request.LINE)  # the answer in the request's product line
             others: list[Message] = []
             while True:
                 data = yield Receive(max(1, answer_len - parser.pending), sent.finished + deadline)
@@ -425,7 +424,7 @@ class BusCore:
         if ids is not None:
             for device_id in set(ids):
                 self._owe(device_id, cls, sent.finished + window + self.late_answer)
-        parser, answers, heard, settled = StreamParser(), list[Message](), set[int](), set[int]()
+        parser, answers, heard, settled = StreamParser(line=request_cls.LINE), list[Message](), set[int](), set[int]()
         self.broadcast_span = None
         until = sent.finished + (window if start_within is None else min(window, start_within))
         while True:

@@ -138,8 +138,10 @@ class Bus:
         an ID still busy writing its EEPROM is waited for first (docs/protocol.md)."""
         self.run(self.core.tell(*commands))
 
-    def motor(self, device_id: int, product: str = "mc") -> Motor:
-        return Motor(self, device_id, product)
+    def motor(self, device_id: int, product: str | None = None) -> Motor:
+        """A handle for one controller. Without `product`: the product line discovery found for the
+        ID on this bus (nurimc.products), else MC."""
+        return Motor(self, device_id, product or self.core.products.get(device_id, "mc"))
 
     def close(self) -> None:
         with self._lock:

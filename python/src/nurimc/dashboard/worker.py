@@ -279,7 +279,9 @@ class BusWorker:
         if known is not None and known.baudrate != self.bus.baudrate:
             self.bus.baudrate = known.baudrate
         if device_id not in self._handles:
-            self._handles[device_id] = self.bus.motor(device_id, self.product)
+            # the product line discovery found for the ID (nurimc.products) beats the default "mc"
+            found = self.bus.core.products.get(device_id) if self.product == "mc" else None
+            self._handles[device_id] = self.bus.motor(device_id, found or self.product)
         return self._handles[device_id]
 
     def _wrote_eeprom(self, device_id: int, why: str) -> None:

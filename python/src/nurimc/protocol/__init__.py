@@ -28,14 +28,17 @@ from .errors import (
     MissingFieldError,
     ProtocolError,
     UnknownFieldError,
+    UnknownLineError,
     UnknownMessageError,
+    WrongLineError,
 )
 from .frame import build_frame, checksum
+from .lines import ALL_LINES, Line, line, line_of, product_line
 from .message import Answer, Command, Message, Request
 from .messages import *  # noqa: F403 - one class per message, generated
 from .messages import BY_MODE, MESSAGES
 from .parser import ParserStats, StreamParser
-from .schema import FieldSpec, Kind, MessageSpec, ProductSpec
+from .schema import FieldSpec, Kind, LineSpec, MessageSpec, ProductSpec
 
 
 def baud_index(rate: int) -> int:
@@ -52,10 +55,13 @@ def answer_class(request: type[Message]) -> type[Message]:
     name = request.SPEC.answer
     if name is None:
         raise ValueError(f"{request.SPEC.name} is not a request; commands are never answered")
+    if request.LINE != "mc":  # another product line: its own answer class (spec/lines.json)
+        return line_of(request).answer_class(request)
     return MESSAGES[name]
 
 
 __all__ = [
+    "ALL_LINES",
     "Answer",
     "BAUD_RATES",
     "BROADCAST_ID",
@@ -69,6 +75,8 @@ __all__ = [
     "FieldTypeError",
     "HEADER",
     "Kind",
+    "Line",
+    "LineSpec",
     "MAX_DEVICE_ID",
     "MESSAGES",
     "Message",
@@ -83,11 +91,16 @@ __all__ = [
     "SPECS",
     "StreamParser",
     "UnknownFieldError",
+    "UnknownLineError",
     "UnknownMessageError",
+    "WrongLineError",
     "answer_class",
     "baud_index",
     "build_frame",
     "checksum",
+    "line",
+    "line_of",
+    "product_line",
     "decode",
     "encode",
     "make",

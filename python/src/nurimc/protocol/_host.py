@@ -52,9 +52,12 @@ HOST: dict[str, Any] = {'timing': {'bits_per_byte': 10,
  'profiles': {'mc': {'busy_window_s': 0.3,
                      'busy_window_source': 'field notes: 50-300 ms; the upper end, since a frame sent inside '
                                            'the window is lost',
-                     'speed_zero': 'ignore',
-                     'speed_zero_source': 'document: speed 1-65533 (§1, §3), so a frame with speed 0 is '
-                                          'outside the range and is ignored',
+                     'speed_zero': 'stop',
+                     'speed_zero_source': "vendor code: the vendor's simulator decelerates to a stop over "
+                                          'the arrival time on a ramped-speed command with speed 0, and '
+                                          'every vendor client stops motors that way (product-lines.md '
+                                          "section 7); the document's strict reading (its range starts at 1, "
+                                          'sections 1 and 3) is --speed-zero ignore',
                      'factory_defaults': {'position_kp': 50,
                                           'position_ki': 0,
                                           'position_kd': 10,
@@ -65,8 +68,13 @@ HOST: dict[str, Any] = {'timing': {'bits_per_byte': 10,
                      'factory_defaults_source': "assumed: the document says only 'differs per product'"},
               'blmc-h': {'busy_window_s': 0.3,
                          'busy_window_source': 'field notes: 50-300 ms; the upper end',
-                         'speed_zero': 'ignore',
-                         'speed_zero_source': 'document: speed 1-65533 (§1, §3)',
+                         'speed_zero': 'stop',
+                         'speed_zero_source': "vendor code: the vendor's simulator decelerates to a stop "
+                                              'over the arrival time on a ramped-speed command with speed 0, '
+                                              'and every vendor client stops motors that way '
+                                              "(product-lines.md section 7); the document's strict reading "
+                                              '(its range starts at 1, sections 1 and 3) is --speed-zero '
+                                              'ignore',
                          'factory_defaults': {'position_kp': 40,
                                               'position_ki': 0,
                                               'position_kd': 15,
@@ -74,4 +82,99 @@ HOST: dict[str, Any] = {'timing': {'bits_per_byte': 10,
                                               'speed_ki': 8,
                                               'speed_kd': 0,
                                               'rated_current': 80},
-                         'factory_defaults_source': "assumed: the document says only 'differs per product'"}}}
+                         'factory_defaults_source': "assumed: the document says only 'differs per product'"},
+              'rsa': {'busy_window_s': 0.3,
+                      'busy_window_source': 'assumed: the vendor sources say nothing about stored settings '
+                                            "on this line (product-lines.md section 5); MC's upper end",
+                      'speed_zero': 'stop',
+                      'speed_zero_source': 'vendor code: every vendor client stops with speed 0 and the '
+                                           "vendor's simulator decelerates to a stop (product-lines.md "
+                                           'section 7)',
+                      'factory_defaults': {'position_kp': 50,
+                                           'position_ki': 0,
+                                           'position_kd': 10,
+                                           'speed_kp': 30,
+                                           'speed_ki': 10,
+                                           'speed_kd': 0,
+                                           'rated_current': 50},
+                      'factory_defaults_source': "assumed: no source gives this line's defaults; MC's "
+                                                 'values'},
+              'rsavw': {'busy_window_s': 0.3,
+                        'busy_window_source': 'assumed: the vendor sources say nothing about stored settings '
+                                              "on this line (product-lines.md section 5); MC's upper end",
+                        'speed_zero': 'stop',
+                        'speed_zero_source': 'vendor code: every vendor client stops with speed 0 and the '
+                                             "vendor's simulator decelerates to a stop (product-lines.md "
+                                             'section 7)',
+                        'factory_defaults': {'position_kp': 50,
+                                             'position_ki': 0,
+                                             'position_kd': 10,
+                                             'speed_kp': 30,
+                                             'speed_ki': 10,
+                                             'speed_kd': 0,
+                                             'rated_current': 50},
+                        'factory_defaults_source': "assumed: no source gives this line's defaults; MC's "
+                                                   'values'},
+              'sa': {'busy_window_s': 0.3,
+                     'busy_window_source': 'assumed: the vendor sources say nothing about stored settings on '
+                                           "this line (product-lines.md section 5); MC's upper end",
+                     'speed_zero': 'stop',
+                     'speed_zero_source': 'vendor code: every vendor client stops with speed 0 and the '
+                                          "vendor's simulator decelerates to a stop (product-lines.md "
+                                          'section 7)',
+                     'factory_defaults': {'position_kp': 50,
+                                          'position_ki': 0,
+                                          'position_kd': 10,
+                                          'speed_kp': 30,
+                                          'speed_ki': 10,
+                                          'speed_kd': 0,
+                                          'rated_current': 50},
+                     'factory_defaults_source': "assumed: no source gives this line's defaults; MC's values"},
+              'sm': {'busy_window_s': 0.3,
+                     'busy_window_source': 'assumed: the vendor sources say nothing about stored settings on '
+                                           "this line (product-lines.md section 5); MC's upper end",
+                     'speed_zero': 'stop',
+                     'speed_zero_source': 'vendor code: every vendor client stops with speed 0 and the '
+                                          "vendor's simulator decelerates to a stop (product-lines.md "
+                                          'section 7)',
+                     'factory_defaults': {'position_kp': 50,
+                                          'position_ki': 0,
+                                          'position_kd': 10,
+                                          'speed_kp': 30,
+                                          'speed_ki': 10,
+                                          'speed_kd': 0,
+                                          'rated_current': 50},
+                     'factory_defaults_source': "assumed: no source gives this line's defaults; MC's values"},
+              'sm-cs': {'busy_window_s': 0.3,
+                        'busy_window_source': 'assumed: the vendor sources say nothing about stored settings '
+                                              "on this line (product-lines.md section 5); MC's upper end",
+                        'speed_zero': 'stop',
+                        'speed_zero_source': 'vendor code: every vendor client stops with speed 0 and the '
+                                             "vendor's simulator decelerates to a stop (product-lines.md "
+                                             'section 7)',
+                        'factory_defaults': {'position_kp': 50,
+                                             'position_ki': 0,
+                                             'position_kd': 10,
+                                             'speed_kp': 30,
+                                             'speed_ki': 10,
+                                             'speed_kd': 0,
+                                             'rated_current': 50},
+                        'factory_defaults_source': "assumed: no source gives this line's defaults; MC's "
+                                                   'values'},
+              'sm-readme': {'busy_window_s': 0.3,
+                            'busy_window_source': 'assumed: the vendor sources say nothing about stored '
+                                                  "settings on this line (product-lines.md section 5); MC's "
+                                                  'upper end',
+                            'speed_zero': 'stop',
+                            'speed_zero_source': 'vendor code: every vendor client stops with speed 0 and '
+                                                 "the vendor's simulator decelerates to a stop "
+                                                 '(product-lines.md section 7)',
+                            'factory_defaults': {'position_kp': 50,
+                                                 'position_ki': 0,
+                                                 'position_kd': 10,
+                                                 'speed_kp': 30,
+                                                 'speed_ki': 10,
+                                                 'speed_kd': 0,
+                                                 'rated_current': 50},
+                            'factory_defaults_source': "assumed: no source gives this line's defaults; MC's "
+                                                       'values'}}}

@@ -17,6 +17,12 @@ DEVICE_DEFAULTS: dict[str, int] = {'id': 0, 'baud_index': 6, 'response_time': 1,
 PRODUCTS: dict[str, ProductSpec] = {
     'mc': ProductSpec('mc', 'MC', 'brushed DC motor with a quadrature encoder', 'encoder pulses', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
     'blmc-h': ProductSpec('blmc-h', 'BLMC-H', 'brushless DC motor with hall sensors', 'poles', 254, (('position_kp', 40), ('position_ki', 0), ('position_kd', 15), ('speed_kp', 25), ('speed_ki', 8), ('speed_kd', 0), ('rated_current', 80))),
+    'rsa': ProductSpec('rsa', 'RSA', 'smart actuator: position and speed (spec/lines.json)', 'none (no resolution setting)', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
+    'rsavw': ProductSpec('rsavw', 'RSAVW', 'RSA with an absolute encoder and an echo mode (spec/lines.json)', 'none (no resolution setting)', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
+    'sa': ProductSpec('sa', 'SA', "SA/SB/SC actuator: RSA's table plus open-loop drive (spec/lines.json)", 'none (no resolution setting)', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
+    'sm': ProductSpec('sm', 'SM', 'speed-only smart motor whose table is not known: only what both vendor tables agree on (spec/lines.json)', 'none (no resolution setting)', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
+    'sm-cs': ProductSpec('sm-cs', 'SM (C# table)', "speed-only smart motor speaking the vendor C# library's table (spec/lines.json)", 'none (no resolution setting)', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
+    'sm-readme': ProductSpec('sm-readme', 'SM (README table)', "speed-only smart motor speaking the vendor Python README's table (spec/lines.json)", 'none (no resolution setting)', 254, (('position_kp', 50), ('position_ki', 0), ('position_kd', 10), ('speed_kp', 30), ('speed_ki', 10), ('speed_kd', 0), ('rated_current', 50))),
 }
 
 SPECS: dict[str, MessageSpec] = {

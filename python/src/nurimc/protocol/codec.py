@@ -55,12 +55,17 @@ def encode(message: Message) -> bytes:
     return message.encode()
 
 
-def decode(frame: bytes | bytearray | memoryview) -> Message:
+def decode(frame: bytes | bytearray | memoryview, line: str = "mc") -> Message:
     """Exactly one whole frame -> its message. Out-of-range field values decode as they are.
 
     Raises DecodeError whose kind is the first failing check, in this order:
-    header, truncated, trailing, checksum, unknown_mode, size.
+    header, truncated, trailing, checksum, unknown_mode, size. `line` names the product
+    line whose mode table reads the frame (spec/lines.json; UnknownLineError if none).
     """
+    if line != "mc":
+        from .lines import line as line_named
+
+        return line_named(line).decode(frame)
     raw = bytes(frame)
     if raw[:2] != HEADER[: len(raw[:2])]:
         raise DecodeError("header", f"frame must start with FF FE, got {raw[:2].hex(' ').upper()}")

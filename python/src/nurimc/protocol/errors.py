@@ -55,3 +55,15 @@ class DecodeError(ProtocolError):
 
 # The order in which decode checks a frame; the first failing check names the error.
 DECODE_ERROR_KINDS = ("header", "truncated", "trailing", "checksum", "unknown_mode", "size")
+
+
+class UnknownLineError(ProtocolError):
+    """A product line name that spec/lines.json does not have."""
+
+    kind = "unknown_line"
+
+
+class WrongLineError(EncodeError):
+    """A message of one product line sent to, or built for, a controller of another."""
+
+    kind = "wrong_line"

@@ -55,6 +55,8 @@ class Message(tuple[int, ...]):
 
     __slots__ = ()
     SPEC: ClassVar[MessageSpec]
+    #: the product line the message belongs to (spec/lines.json); the generated classes are MC's
+    LINE: ClassVar[str] = "mc"
 
     if TYPE_CHECKING:  # the generated classes define the real constructors
         id: int

@@ -17,6 +17,7 @@ construction. Counters are added up once per call, not per frame.
 from __future__ import annotations
 
 import struct
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 from zlib import adler32 as _adler32
@@ -30,17 +31,31 @@ _HEADER_BYTE = HEADER[0]
 _NEW = tuple.__new__
 
 
-def _mode_table() -> list[tuple[int, int, type[Message], Any] | None]:
+_Table = list[tuple[int, int, type[Message], Any] | None]
+
+
+def _mode_table(by_mode: Mapping[int, type[Message]]) -> _Table:
     """Indexed by mode byte: (size byte, frame length, class, unpack of ID + fields) or None."""
-    table: list[tuple[int, int, type[Message], Any] | None] = [None] * 256
-    for mode, cls in BY_MODE.items():
+    table: _Table = [None] * 256
+    for mode, cls in by_mode.items():
         skip = DATA_OFFSET - ID_OFFSET - 1  # size, checksum and mode lie between the ID and the data
         layout = struct.Struct(f">B{skip}x{cls.SPEC.layout.format.lstrip('>')}")
         table[mode] = (cls.SPEC.size, cls.SPEC.size + 4, cls, layout.unpack_from)
     return table
 
 
-_BY_MODE = _mode_table()
+_BY_MODE = _mode_table(BY_MODE)
+_LINE_TABLES: dict[str, _Table] = {"mc": _BY_MODE}
+
+
+def _line_table(key: str) -> _Table:
+    """The mode table of a product line (spec/lines.json), made on first use."""
+    table = _LINE_TABLES.get(key)
+    if table is None:
+        from .lines import line  # lines imports the parser's siblings only; here to keep MC's import light
+
+        table = _LINE_TABLES[key] = _mode_table(line(key).by_mode)
+    return table
 
 
 @dataclass
@@ -62,10 +77,13 @@ class StreamParser:
     """Feed bytes, get messages. Never raises on garbage; memory stays bounded.
 
     Field values come as they are on the wire; with check_ranges=True a frame whose ID or
-    a field is out of range is not returned but counted (stats.out_of_range).
+    a field is out of range is not returned but counted (stats.out_of_range). `line` names
+    the product line whose mode table reads the frames (spec/lines.json; default MC).
     """
 
-    def __init__(self, *, check_ranges: bool = False) -> None:
+    def __init__(self, *, check_ranges: bool = False, line: str = "mc") -> None:
+        self._by_mode = _line_table(line)
+        self.line = line
         self._held = b""  # the start of a frame cut by the end of the last chunk
         self.check_ranges = check_ranges
         self.stats = ParserStats()
@@ -90,6 +108,7 @@ class StreamParser:
         n = len(buf)
         out: list[Message] = []
         pos = dropped = 0
+        by_mode = self._by_mode
         while pos < n:
             if buf[pos] == 0xFF and pos + 1 < n and buf[pos + 1] == 0xFE:
                 start = pos  # the usual case: the next frame follows the last one (cheaper than find)
@@ -106,7 +125,7 @@ class StreamParser:
                     pos = start  # too short to judge yet
                     break
             else:
-                entry = _BY_MODE[buf[start + 5]]
+                entry = by_mode[buf[start + 5]]
                 if entry is not None and entry[0] == buf[start + 3]:
                     end = start + entry[1]
                     if end > n:
@@ -165,7 +184,7 @@ class StreamParser:
         stats, n = self.stats, len(data)
         if n - start >= 4:
             size = data[start + SIZE_OFFSET]
-            entry = _BY_MODE[data[start + MODE_OFFSET]] if n - start >= 6 else None
+            entry = self._by_mode[data[start + MODE_OFFSET]] if n - start >= 6 else None
             if size < 2 or size > MAX_SIZE:
                 stats.bad_size += 1
             elif n - start < 6:

@@ -75,3 +75,15 @@ class ProductSpec:
     resolution_unit: str
     max_rated_current: int
     defaults: tuple[tuple[str, int], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class LineSpec:
+    """A product line: which message each mode byte means (spec/lines.json)."""
+
+    key: str
+    title: str
+    what: str
+    source: str
+    products: tuple[str, ...]
+    messages: tuple[MessageSpec, ...]

@@ -64,7 +64,10 @@ class BridgeNode:
         self.participant = participant
         self.namespace = namespace
         self.period = 1.0 / rate if rate else 0.0
-        self.motors = {i: Motor(bus, i, product) for i in bridge.ids}
+        # the product line discovery found for an ID (nurimc.products) beats the default "mc"
+        self.motors = {
+            i: Motor(bus, i, (bus.core.products.get(i) if product == "mc" else None) or product) for i in bridge.ids
+        }
         self.broadcast_read = broadcast_read
         self.slot: int | None = None
         self.sink = sink

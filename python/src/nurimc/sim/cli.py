@@ -34,16 +34,30 @@ def sim(
     ] = None,
     baud: Annotated[int, typer.Option(help="Rate of the --ids controllers (and of TCP clients).")] = 9600,
     motor: Annotated[
-        list[str] | None, typer.Option(help="A controller at its own rate, ID@RATE (repeatable), e.g. 3@57600.")
+        list[str] | None,
+        typer.Option(
+            help="A controller at its own rate and product, ID@RATE[:PRODUCT] (repeatable), "
+            "e.g. 3@57600 or 7@57600:rsa."
+        ),
     ] = None,
-    product: Annotated[str, typer.Option(help="Product: mc or blmc-h.")] = "mc",
+    product: Annotated[
+        str,
+        typer.Option(
+            help="Product of the --ids controllers (and of --motor without :PRODUCT): "
+            + ", ".join(PRODUCT_NAMES)
+            + ". sm speaks the vendor C# table (sm-cs); sm-readme the README table."
+        ),
+    ] = "mc",
     profile: Annotated[
         str | None,
         typer.Option(help="Product profiles file shaped like spec/profiles.json (factory gains, speed-0 rule)."),
     ] = None,
     speed_zero: Annotated[
         str | None,
-        typer.Option(help="What a motion frame with speed 0 does: ignore (outside the range) or stop (hold)."),
+        typer.Option(
+            help="What a motion frame with speed 0 does: stop (the default: decelerate to a stop over the "
+            "arrival time, as the vendor's simulator) or ignore (the document's range starts at 1)."
+        ),
     ] = None,
     state: Annotated[str | None, typer.Option(help="Directory that keeps the settings across restarts.")] = None,
     wire_timing: Annotated[bool, typer.Option("--wire-timing", help="Pace bytes as a real wire would.")] = False,
@@ -61,9 +75,12 @@ def sim(
     eeprom_ms: Annotated[float, typer.Option(help="How long a settings write keeps a controller busy.")] = 50.0,
     verbose: Annotated[bool, typer.Option("-v", "--verbose", help="Log every frame received and sent.")] = False,
 ) -> None:
-    """Simulated MC / BLMC-H controllers on a simulated RS485 bus, on a pseudo-terminal and/or TCP.
+    """Simulated controllers (MC, BLMC-H, RSA, RSAVW, SA, SM) on a simulated RS485 bus, on a pseudo-terminal and/or TCP.
 
     Example: nurimc sim --link /tmp/nurimc0 --ids 1,2 --motor 3@57600 --wire-timing
+
+    Mixed product lines, each at its own rate:
+    nurimc sim --link /tmp/nurimc0 --motor 1@9600:mc --motor 7@57600:rsa --motor 9@115200:sm
     """
     logging.basicConfig(
         level=logging.DEBUG if verbose else logging.WARNING,
@@ -146,8 +163,8 @@ def build_bus(
     try:
         for i in id_list:
             bus.add_controller(i, baud, product)
-        for i, rate in motor_list:
-            bus.add_controller(i, rate, product)
+        for i, rate, own in motor_list:
+            bus.add_controller(i, rate, own or product)
     except BaseException:
         bus.close()
         raise

@@ -12,9 +12,11 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..protocol import PRODUCTS, Answer, Message
+from ..protocol import MESSAGES, PRODUCTS, Answer, Message
 from ..protocol import messages as m
 from ..protocol.errors import EncodeError
+from ..protocol.lines import SIMULATED_LINES
+from ..protocol.lines import line as line_named
 from ..protocol.message import check_value
 from . import servo as sv
 from .motor import ACCEL_PER_AMP, COULOMB
@@ -86,6 +88,10 @@ class SimController:
         factory_defaults: dict[str, int] | None = None,
     ) -> None:
         self.product = check_product(product)
+        # the table this controller speaks (spec/lines.json); its frames are read with it
+        self.line = SIMULATED_LINES[product]
+        self._line = line_named(self.line)
+        self.echo = 0  # RSAVW echo mode (1 on): stored and read back; what it does is not documented
         self.speed_zero = speed_zero
         self.factory_defaults = factory_defaults
         self.settings = settings
@@ -178,8 +184,14 @@ class SimController:
     # --- protocol ---------------------------------------------------------------------------
     def take(self, message: Message, now: float) -> Reply | None:
         """A frame addressed to us (or broadcast), whole at bus time `now`: obey or answer it,
-        unless it cannot be taken (logged with the reason)."""
+        unless it cannot be taken (logged with the reason).
+
+        A message of another line comes in that line's class; where MC has a message of the
+        same name (same fields, same meaning) it is handled as MC's, and its answer goes out
+        in the line's own class (the line's mode byte)."""
         self.frames_received += 1
+        if message.LINE != "mc" and message.name in MESSAGES:
+            message = MESSAGES[message.name](*message)
         problem = self._out_of_range(message)
         if problem is not None:
             log.debug("id %d ignores %s: %s", self.id, message, problem)
@@ -223,12 +235,28 @@ class SimController:
             if self._on_settings_changed is not None:
                 self._on_settings_changed()
             return None
-        answer = self._answer(message)
+        answer = self._answer(message) if message.LINE == "mc" else self._line_answer(message)
         if answer is None:
             self._move(message)
             return None
+        if self.line != answer.LINE:  # MC's answer class: sent with this line's mode byte
+            answer = self._line.classes[answer.name](*answer)
         start = now + self.settings.response_time * 100e-6
         return Reply(start, answer.encode(), self.baud, self)
+
+    def _line_answer(self, msg: Message) -> Message | None:
+        """Requests only other lines have (RSAVW absolute encoder and echo, SM README firmware)."""
+        cls = self._line.classes
+        if msg.name == "request_absolute_position":
+            # an absolute encoder reads the shaft's angle within one turn (0.01 deg; not documented
+            # beyond the vendor reader's layout): the present angle modulo 360 deg
+            angle = round(self.logical_angle() * 100) % 36000
+            return cls["absolute_position"](self.id, 0, angle)
+        if msg.name == "request_echo":
+            return cls["echo"](self.id, self.echo)
+        if msg.name == "request_firmware_a6":
+            return cls["firmware_a6"](self.id, FIRMWARE_VERSION)
+        return None
 
     def _write_setting(self, msg: Message) -> None:
         s = self.settings
@@ -276,7 +304,20 @@ class SimController:
         if isinstance(msg, m.ResetPosition):
             servo.zero()
             return
+        if msg.name == "set_echo":  # RSAVW: kept and read back (it is not said what echo does)
+            self.echo = msg.fields()["echo"]
+            return
         if self.settings.control:  # control off: motion commands are ignored until control on
+            log.debug("id %d ignores %s: control is off (set_control with control 0 turns it on)", self.id, msg)
+            return
+        if msg.name == "open_loop":  # SA: drive at a duty, no loop; duty 0 lets the motor go
+            fields = msg.fields()
+            duty = fields["duty"]
+            if duty == 0:
+                servo.release()
+            else:
+                top = servo.limits.max_speed * duty / 10000
+                servo.ramp_speed(_signed(fields["direction"], top) * sense, 0.1)
             return
         if isinstance(msg, m.PositionSpeed) and msg.speed == 0:  # taken only under speed_zero=stop
             servo.hold()  # stop: hold the place it has reached
@@ -292,6 +333,8 @@ class SimController:
                 servo.move_at_speed(target, msg.speed / 10 * 6)
             else:
                 servo.move_in_time(target, msg.arrival_time / 10)
+        elif isinstance(msg, m.AccelSpeed) and msg.speed == 0:  # taken only under speed_zero=stop
+            servo.stop(msg.arrival_time / 10)  # decelerate over the arrival time, then hold
         elif isinstance(msg, m.AccelSpeed):
             servo.ramp_speed(_signed(msg.direction, msg.speed / 10 * 6) * sense, msg.arrival_time / 10)
 

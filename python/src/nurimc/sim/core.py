@@ -113,7 +113,8 @@ class WireModel:
         self.airborne: list[Transmission] = []
         self.collisions = 0
         self.rejected: dict[int, int] = defaultdict(int)  # bytes per rate that were no frame
-        self._parsers: dict[int, ExplainingParser] = {}  # one per rate a controller listens at
+        # one per rate a controller listens at and product line spoken there (spec/lines.json)
+        self._parsers: dict[tuple[int, str], ExplainingParser] = {}
         self._index: dict[int, dict[int, list[SimController]]] | None = None  # rate -> ID -> controllers
         self._garbler = Garbler(seed + 0x6A5)
         self._store = StateStore(state_dir) if state_dir is not None else None
@@ -233,35 +234,59 @@ class WireModel:
             self.changed.notify_all()
 
     def _hear(self, rate: int, chunk: bytes, arrival: float, explain: bool) -> None:
-        """The controllers at `rate` hear `chunk`: parsed once, each frame to whom it addresses."""
-        parser = self._parsers.get(rate)
+        """The controllers at `rate` hear `chunk`: parsed once per product line spoken at that
+        rate (a mode byte means another message in each line), each frame to whom it addresses."""
+        lines = sorted(self._lines_at(rate))
+        for line in lines:
+            self._hear_line(rate, line, chunk, arrival, explain, len(lines) > 1)
+            if self._index is None and rate not in self._listeners():
+                return  # nobody listens at this rate any more
+
+    def _hear_line(self, rate: int, line: str, chunk: bytes, arrival: float, explain: bool, mixed: bool) -> None:
+        """One line's reading of the bytes at `rate`. With several lines at a rate, -v explains a
+        frame in the terms of the line of the controller it addresses (the others' readings of
+        the same bytes are not what any controller took)."""
+        parser = self._parsers.get((rate, line))
         if parser is None:
-            parser = self._parsers[rate] = ExplainingParser()
+            parser = self._parsers[(rate, line)] = ExplainingParser(line)
+        where = f"@{rate} ({line})" if mixed or line != "mc" else f"@{rate}"
+
+        def speaks(device_id: int | None) -> bool:
+            """Does a controller of this line have this ID here (or is it for all, or unknown)?"""
+            if not mixed or device_id == BROADCAST_ID:
+                return True
+            if device_id is None:  # bytes outside a frame: in one line's terms, part of another's frame
+                return False
+            group = self._listeners().get(rate, {}).get(device_id, ())
+            return any(c.line == line for c in group) or (not group and line == min(self._lines_at(rate)))
+
         for event in parser.feed(chunk):
             if not isinstance(event, SniffedFrame):
                 self.rejected[rate] += len(event.raw)
-                if explain:
-                    log.debug("@%d not taken: %s: %s", rate, event.reason, event.raw.hex(" "))
+                if explain and speaks(event.id):
+                    log.debug("%s not taken: %s: %s", where, event.reason, event.raw.hex(" "))
                 continue
             message = event.message
-            if explain:
-                log.debug("host @%d -> %s  [%s]", rate, message, event.raw.hex(" "))
+            if explain and speaks(message.id):
+                log.debug("host %s -> %s  [%s]", where, message, event.raw.hex(" "))
             by_id = self._listeners().get(rate, {})
             if message.id == BROADCAST_ID:
                 targets = [c for group in by_id.values() for c in group]
             else:
                 targets = list(by_id.get(message.id, ()))
-                if not targets and explain:
+                if not targets and explain and speaks(message.id):
                     elsewhere = sorted(r for r, ids in self._listeners().items() if message.id in ids)
                     log.debug(
-                        "@%d not taken: no controller has ID %d at this rate%s",
-                        rate,
+                        "%s not taken: no controller has ID %d at this rate%s",
+                        where,
                         message.id,
                         f" (wrong rate: ID {message.id} listens at {', '.join(map(str, elsewhere))} bps)"
                         if elsewhere
                         else "",
                     )
             for controller in targets:
+                if controller.line != line:
+                    continue  # it reads these bytes with its own line's table (another parser)
                 if controller.baud != rate:
                     continue  # it moved to another rate earlier in this frame's broadcast
                 reply = controller.take(message, arrival)
@@ -270,6 +295,9 @@ class WireModel:
             if self._index is None and rate not in self._listeners():
                 parser.clear()  # nobody listens at this rate any more
                 return
+
+    def _lines_at(self, rate: int) -> set[str]:
+        return {c.line for group in self._listeners().get(rate, {}).values() for c in group} or {"mc"}
 
     def _send(self, reply: Reply) -> None:
         delay = self.faults.answer_delay()
@@ -283,7 +311,8 @@ class WireModel:
         tx = Transmission(start, reply.baud, bytearray(frame), [reply.controller.id])
         self._uart_free[reply.controller.slot] = tx.end
         if log.isEnabledFor(logging.DEBUG):
-            log.debug("id %d <- %s  [%s]", reply.controller.id, decode(reply.frame), reply.frame.hex(" "))
+            answer = decode(reply.frame, line=reply.controller.line)
+            log.debug("id %d <- %s  [%s]", reply.controller.id, answer, reply.frame.hex(" "))
         merged = True
         while merged:
             merged = False
@@ -410,7 +439,10 @@ class WireModel:
 
 def describe(bus: WireModel) -> list[str]:
     """One line per controller, for startup output."""
-    return [f"id {c.id} @ {c.baud} bps ({c.product})" for c in bus.controllers]
+    return [
+        f"id {c.id} @ {c.baud} bps ({c.product}" + (f", {c.line} table)" if c.line not in (c.product, "mc") else ")")
+        for c in bus.controllers
+    ]
 
 
 __all__ = ["WireModel", "HostLink", "describe"]

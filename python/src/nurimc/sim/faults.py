@@ -54,7 +54,15 @@ class FaultInjector:
     def __init__(self, config: FaultConfig, seed: int) -> None:
         self.config = config
         self.rng = random.Random(seed)
-        self.counts = {"dropped": 0, "flipped": 0, "noise_bursts": 0, "delayed": 0, "missed": 0, "same_sum": 0, "duplicated": 0}
+        self.counts = {
+            "dropped": 0,
+            "flipped": 0,
+            "noise_bursts": 0,
+            "delayed": 0,
+            "missed": 0,
+            "same_sum": 0,
+            "duplicated": 0,
+        }
         self._same_sum = SameSum(self.rng, config.same_sum_rate, self.counts) if config.same_sum_rate else None
 
     def corrupt(self, data: bytes, noise: bool) -> bytes:

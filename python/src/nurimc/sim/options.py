@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import InputError
 from ..inputs import id_list
-from ..protocol import BAUD_RATES
+from ..protocol import BAUD_RATES, PRODUCTS
 
 
 class OptionError(ValueError):
@@ -43,15 +43,18 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-def parse_motor(text: str) -> tuple[int, int]:
-    """`ID@RATE` (e.g. 3@57600) -> (3, 57600)."""
-    ident, sep, rate = text.partition("@")
+def parse_motor(text: str) -> tuple[int, int, str | None]:
+    """`ID@RATE[:PRODUCT]` (e.g. 3@57600, 7@57600:rsa) -> (3, 57600, None), (7, 57600, "rsa")."""
+    ident, sep, rest = text.partition("@")
     if not sep:
-        raise OptionError(f"--motor {text!r}: write ID@RATE, e.g. 3@57600")
+        raise OptionError(f"--motor {text!r}: write ID@RATE or ID@RATE:PRODUCT, e.g. 3@57600 or 7@57600:rsa")
+    rate, colon, product = rest.partition(":")
     i = _int(ident, "--motor ID")
     if not 0 <= i <= 254:
         raise OptionError(f"--motor {text!r}: ID {i} is out of range; use 0..254")
-    return i, check_baud(_int(rate, "--motor RATE"))
+    if colon and product not in PRODUCTS:
+        raise OptionError(f"--motor {text!r}: unknown product {product!r}; use one of {', '.join(PRODUCTS)}")
+    return i, check_baud(_int(rate, "--motor RATE")), (product if colon else None)
 
 
 def parse_bool(text: str, what: str) -> bool:

@@ -77,6 +77,7 @@ class Servo:
         self._speed_integral = 0.0
         self._last_speed_error = 0.0
         self.static = False  # nothing will change until a new command arrives
+        self.hold_after_ramp = False  # a stop (speed 0): hold the place reached when the ramp ends
 
     # --- measurements as the controller sees them -----------------------------------------
     def measured_angle(self) -> float:
@@ -121,6 +122,7 @@ class Servo:
 
     def ramp_speed(self, speed: float, duration: float) -> None:
         """Section 3: ramp the speed to `speed` (deg/s, signed) in `duration` s."""
+        self.hold_after_ramp = False
         speed = max(-self.limits.max_speed, min(self.limits.max_speed, speed))
         start = self.speed_ref if self.mode is Mode.SPEED else self.motor.speed
         if self.mode is not Mode.SPEED:
@@ -129,6 +131,12 @@ class Servo:
         self.profile = None
         self.ramp = (start, speed, self.time, max(duration, DT))
         self.static = False
+
+    def stop(self, duration: float) -> None:
+        """Speed 0 as the vendor's simulator takes it: decelerate to a stop over `duration` s,
+        then hold the place reached (so nothing creeps on at a residual speed)."""
+        self.ramp_speed(0.0, duration)
+        self.hold_after_ramp = True
 
     def zero(self) -> None:
         """Section 15: the current position becomes zero (the motor keeps what it was doing)."""
@@ -158,6 +166,10 @@ class Servo:
     def _step(self) -> None:
         m, lim = self.motor, self.limits
         self.time += DT
+        if self.hold_after_ramp and (self.mode is not Mode.SPEED or self.ramp is None):
+            self.hold_after_ramp = False
+            if self.mode is Mode.SPEED:
+                self.hold()
         if self.mode is Mode.OFF:
             step_motor(m, 0.0, lim.accel_per_amp, lim.coulomb, DT)
             self.static = m.speed == 0.0

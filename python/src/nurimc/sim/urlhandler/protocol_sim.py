@@ -1,7 +1,7 @@
 """`serial.serial_for_url("sim://?ids=0,1&baud=9600&product=mc&wire_timing=0&motor=3@57600")`.
 
 Each URL makes a new bus (reach it as `port.bus`). Parameters: ids (list or count), baud,
-product, motor (repeatable ID@RATE), wire_timing, state (directory), seed, and the fault
+product, motor (repeatable ID@RATE or ID@RATE:PRODUCT), wire_timing, state (directory), seed, and the fault
 options drop_rate, flip_rate, noise_rate, delay_ms, miss_rate, same_sum_rate, dup_rate, echo; speed_zero (ignore or
 stop) and eeprom_ms. `ids=1` is the controller at ID 1 (`ids=0-3` a range); no ids: ID 0.
 """
@@ -20,7 +20,16 @@ from ..options import OptionError, check_baud, parse_bool, parse_ids, parse_moto
 from ..port import SimSerial
 from ..profile import SPEED_ZERO_CHOICES
 
-_FLOAT_FAULTS = ("drop_rate", "flip_rate", "noise_rate", "delay_ms", "delay_rate", "miss_rate", "same_sum_rate", "dup_rate")
+_FLOAT_FAULTS = (
+    "drop_rate",
+    "flip_rate",
+    "noise_rate",
+    "delay_ms",
+    "delay_rate",
+    "miss_rate",
+    "same_sum_rate",
+    "dup_rate",
+)
 _KNOWN = {
     "ids",
     "baud",
@@ -85,8 +94,8 @@ def bus_from_url(url: str) -> SimBus:
         for i in ids:
             bus.add_controller(i, baud, product)
         for spec in query.get("motor", []):
-            i, rate = parse_motor(spec)
-            bus.add_controller(i, rate, product)
+            i, rate, own = parse_motor(spec)
+            bus.add_controller(i, rate, own or product)
     except BaseException:
         bus.close()
         raise
