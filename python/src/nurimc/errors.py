@@ -15,6 +15,7 @@ __all__ = [
     "IdInUse",
     "InputError",
     "NoAnswer",
+    "NotArrived",
     "NurimcError",
     "PortError",
     "ProtocolError",
@@ -118,3 +119,8 @@ class IdInUse(NurimcError):
 
 class ConfirmationRequired(NurimcError):
     """A destructive operation was asked for without explicit confirmation."""
+
+
+class NotArrived(NurimcError, TimeoutError):
+    """A motion did not come to rest (at its target) within the time given: wait_until_arrived()
+    or stop(). The message says where the motor is and what to try."""

@@ -178,6 +178,8 @@ def main(args: list[str] | None = None) -> None:
     """Run the CLI: every failure is one line on stderr and an exit code, never a traceback
     (unless -v/--verbose asks for one, after that line)."""
     args = global_flags_first(list(sys.argv[1:] if args is None else args))
+    if not args:
+        args = ["--help"]  # `nurimc` alone: the normal help, on stdout, exit 0
     before = args[: args.index("--")] if "--" in args else args
     verbose = "-v" in before or "--verbose" in before
     _invoked[0] = ""
