@@ -8,7 +8,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
@@ -25,6 +29,7 @@ from ..transport import RS485
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
 EXIT_TERMINATED = 143  # SIGTERM during a one-shot command (128 + 15, the shell's convention)
+EXIT_INTERRUPTED = 130  # Ctrl+C (128 + SIGINT)
 
 #: The longest error line we print; past it the message is cut (it stays one line).
 MESSAGE_LIMIT = 400
@@ -42,6 +47,26 @@ class Terminated(BaseException):
 
 #: Ctrl+C and SIGTERM: what long-running commands (watch, sniff) treat as "stop now, report".
 STOP = (KeyboardInterrupt, Terminated)
+
+
+@contextmanager
+def stop_flag() -> Iterator[threading.Event]:
+    """For commands that loop until Ctrl+C or SIGTERM (watch): the signal only sets this flag and
+    the loop ends at its next boundary. An exception raised by the signal could land anywhere,
+    e.g. inside a transaction or while a lock of the in-process simulator is held, and the
+    cleanup after it could then wait on that lock (seen as a watch not stopping under load)."""
+    flag = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield flag
+        return
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in saved:
+        signal.signal(sig, lambda *_: flag.set())
+    try:
+        yield flag
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
 
 
 @dataclass
@@ -207,6 +232,9 @@ def emit(o: Options, data: Any, table: Table | str | None = None) -> None:
     elif isinstance(table, str):
         out.print(table, markup=False, soft_wrap=True)
     elif table is not None:
+        if table.title:  # a line of its own: as a table title it would wrap to the columns' width
+            out.print(str(table.title), markup=False, soft_wrap=True)
+            table.title = None
         out.print(table)
 
 

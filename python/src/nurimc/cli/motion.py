@@ -7,7 +7,7 @@ from typing import Any
 import typer
 
 from ..protocol.host import LIMITS
-from .common import Number, Options, emit, fail, one_id, open_bus, options
+from .common import InputBadParameter, Number, Options, emit, fail, one_id, open_bus, options
 
 POSITION = LIMITS["position_deg"]
 RPM_MIN, RPM_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
@@ -22,6 +22,19 @@ TIMEOUT = Number("--timeout", 0.1, 3600, "s")
 
 # `move -90` and `run -60`: a negative number is a value, not an option (see register()).
 NUMBERS_FIRST: dict[str, Any] = {"ignore_unknown_options": True}
+
+
+def _signed_rpm(value: Any) -> float:
+    """run's speed: exactly 0 stops; anything else must be a speed the wire can carry (0.04 RPM,
+    which the wire would round to 0, is refused rather than taken as a stop)."""
+    if isinstance(value, str) and value.strip() in ("0", "-0", "+0", "0.0", "-0.0", "+0.0"):
+        return 0.0
+    rpm: float = SIGNED_RPM(value)
+    if abs(rpm) < RPM_MIN:
+        raise InputBadParameter(
+            f"rpm: {value} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way, or 0 to stop"
+        )
+    return rpm
 
 
 def move(
@@ -76,7 +89,7 @@ def run(
     rpm: float = typer.Argument(
         ...,
         help=f"Speed, CCW positive: {SIGNED_RPM.allowed}; 0 stops (as `stop`).",
-        parser=SIGNED_RPM,
+        parser=_signed_rpm,
     ),
     ramp: float = typer.Option(0.5, help=f"Time to reach the speed: {RAMP.allowed}.", parser=RAMP),
 ) -> None:
@@ -88,8 +101,6 @@ def run(
     if rpm == 0:
         _stop(o, ramp)
         return
-    if abs(rpm) < RPM_MIN:
-        fail(f"rpm: {rpm} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way, or 0 to stop")
     with open_bus(o) as bus:
         bus.motor(one_id(o), o.product).run(rpm, ramp)
     emit(o, {"id": o.ids[0], "rpm": rpm, "ramp_s": ramp}, f"ID {o.ids[0]}: running at {rpm} RPM")
