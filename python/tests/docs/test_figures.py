@@ -21,6 +21,7 @@ INTEGRITY = "integrity_issue_10"
 
 #: (phrase with one {} per figure, [(path in the results, decimals), ...])
 PHRASES: list[tuple[str, list[tuple[str, int]]]] = [
+    ("about {} ms per transaction here", [("latency.library_median_us", -1)]),
     (
         "ratio {} ({} µs vs {} µs median)",
         [("latency.ratio", 2), ("latency.library_median_us", 0), ("latency.bare_pyserial_median_us", 0)],
