@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import sys
 import threading
@@ -16,9 +17,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
+import rich.table
 import typer
 from rich.console import Console
-from rich.table import Table
 from rich.text import Text
 
 from ..client.sync import Bus
@@ -26,6 +27,7 @@ from ..errors import InputError
 from ..inputs import Rounded, integer, number, on_grid, range_text, show, with_unit
 from ..protocol import BAUD_RATES, StreamParser
 from ..transport import RS485
+from .i18n import tr
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
 EXIT_TERMINATED = 143  # SIGTERM during a one-shot command (128 + 15, the shell's convention)
@@ -87,12 +89,13 @@ def one_line(message: object) -> str:
 
 
 def say_error(message: object) -> None:
-    err.print(Text.assemble(("error:", "bold red"), " ", one_line(message)), soft_wrap=True)
+    """One line on stderr, `error: ...`, in the language in use (nurimc.cli.i18n)."""
+    err.print(Text.assemble((tr("error:"), "bold red"), " ", one_line(tr(one_line(message)))), soft_wrap=True)
 
 
 def note(message: str) -> None:
     """Something the person should know but that is not an error (e.g. a value the wire rounds)."""
-    err.print(Text.assemble(("note:", "yellow"), " ", one_line(message)), soft_wrap=True)
+    err.print(Text.assemble((tr("note:"), "yellow"), " ", one_line(tr(one_line(message)))), soft_wrap=True)
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
@@ -215,7 +218,7 @@ def open_bus(o: Options) -> Bus:
     bus = Bus.open(port, baudrate=o.baud, tracer=FramePrinter() if o.verbose else None, rs485=rs485)
     warning = getattr(bus.transport, "warning", None)
     if warning:
-        err.print(Text.assemble(("warning:", "yellow"), " ", one_line(warning)), soft_wrap=True)
+        err.print(Text.assemble((tr("warning:"), "yellow"), " ", one_line(tr(one_line(warning)))), soft_wrap=True)
     return bus
 
 
@@ -225,21 +228,41 @@ def one_id(o: Options) -> int:
     return o.ids[0]
 
 
-def emit(o: Options, data: Any, table: Table | str | None = None) -> None:
+def emit(o: Options, data: Any, table: rich.table.Table | str | None = None) -> None:
     """One JSON document on stdout with --json; otherwise the table (or text) for people."""
     if o.json:
         sys.stdout.write(json.dumps(data, indent=2, default=str) + "\n")
     elif isinstance(table, str):
-        out.print(table, markup=False, soft_wrap=True)
+        out.print(tr(table), markup=False, soft_wrap=True)
     elif table is not None:
         if table.title:  # a line of its own: as a table title it would wrap to the columns' width
-            out.print(str(table.title), markup=False, soft_wrap=True)
+            out.print(tr(str(table.title)), markup=False, soft_wrap=True)
             table.title = None
         out.print(table)
+
+
+MARKED = re.compile(r"(\[[a-z ]+\])(.*)(\[/\])\Z", re.DOTALL)
+
+
+def _cell(value: Any) -> Any:
+    """A table cell in the language in use (`[red]no answer[/]` keeps its markup)."""
+    if not isinstance(value, str):
+        return value
+    marked = MARKED.match(value)
+    if marked:
+        return marked.group(1) + tr(marked.group(2)) + marked.group(3)
+    return tr(value)
+
+
+class Table(rich.table.Table):
+    """A rich table whose headers and cells are shown in the language in use."""
+
+    def add_row(self, *renderables: Any, **options: Any) -> None:
+        super().add_row(*(_cell(r) for r in renderables), **options)
 
 
 def table(title: str | None, *columns: str) -> Table:
     t = Table(title=title, title_justify="left")
     for column in columns:
-        t.add_column(column)
+        t.add_column(tr(column))
     return t

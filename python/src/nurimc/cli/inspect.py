@@ -11,6 +11,7 @@ import typer
 from rich.live import Live
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.text import Text
 
 from ..client.sync import Bus
 from ..discovery import Progress as ScanProgress
@@ -36,6 +37,7 @@ from .common import (
     stop_flag,
     table,
 )
+from .i18n import tr
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
 COUNT = Number("--count", 0, 1_000_000, whole=True)
@@ -61,18 +63,18 @@ def scan(
     columns = (
         TextColumn("{task.description}"),
         BarColumn(),
-        TextColumn("{task.completed}/{task.total} rates"),
+        TextColumn("{task.completed}/{task.total} " + tr("rates")),
         TimeElapsedColumn(),
     )
     with open_bus(o) as bus, Progress(*columns, console=err, disable=o.json, transient=True) as bar:
-        task = bar.add_task("scanning", total=len(rate_list))
+        task = bar.add_task(tr("scanning"), total=len(rate_list))
         so_far: list[Any] = []
 
         def show(event: Any) -> None:
             if isinstance(event, ScanProgress):
                 so_far[:] = event.found
                 where = f"{event.rate} bps" + (f", ID {event.walking_id}" if event.walking_id is not None else "")
-                bar.update(task, completed=event.rate_index, description=f"{where}: {len(event.found)} found")
+                bar.update(task, completed=event.rate_index, description=tr(f"{where}: {len(event.found)} found"))
 
         try:
             found = bus.run(discover(bus.core, rate_list, id_list), on_note=show)
@@ -90,7 +92,7 @@ def scan(
 def _scan_report(o: Any, found: list[Any], guesses: dict[tuple[int, int], str], interrupted: bool = False) -> None:
     """The scan's table or JSON; after Ctrl+C, what was found until then (no product read)."""
     if interrupted:
-        err.print(f"interrupted: the scan stopped early; {len(found)} controller(s) found so far")
+        err.print(tr(f"interrupted: the scan stopped early; {len(found)} controller(s) found so far"))
     title = f"{len(found)} controller(s) found" + (" (interrupted)" if interrupted else "")
     rows = table(title, "ID", "baud", "firmware", "product (guess)", "note")
     for f in found:
@@ -186,8 +188,8 @@ def status(ctx: typer.Context) -> None:
         rows.add_row(key, text)
     rows.add_section()
     rows.add_row("[bold]setting[/]", "")
-    for key, value in settings.items():
-        rows.add_row(f"{key}", _setting_text(key, value))
+    for key, value in settings.items():  # setting names as typed (`get firmware`): never translated
+        rows.add_row(Text(key), Text(_setting_text(key, value)))
     emit(o, {"id": device_id, "baud": o.baud, "state": _state_dict(state), "settings": settings}, rows)
 
 

@@ -17,6 +17,7 @@ from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
 from ..motor import Motor
 from ..settings import SETTINGS, Setting, setting
 from .common import EXIT_DEVICE, EXIT_OK, Options, check_baud, emit, err, fail, note, one_id, open_bus, options, table
+from .i18n import tr
 
 T = TypeVar("T")
 NAMES = ", ".join([*SETTINGS, "id", "baud"])
@@ -156,8 +157,8 @@ def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", h
                 "factory reset erases every setting and needs confirming, but stdin is not a terminal to ask "
                 f"on; to confirm, run: nurimc ... --id {device_id} factory-reset --yes"
             )
-        if not typer.confirm(f"Erase every setting of ID {device_id}? It will come back as ID 0 at 9600 bps"):
-            err.print("not reset: answered no (nothing was sent)")
+        if not typer.confirm(tr(f"Erase every setting of ID {device_id}? It will come back as ID 0 at 9600 bps")):
+            err.print(tr("not reset: answered no (nothing was sent)"))
             raise typer.Exit(EXIT_OK)
     with open_bus(o) as bus:
         bus.run(config.factory_reset(bus.core, device_id, confirm=True))
