@@ -22,7 +22,7 @@ from babel.messages.mofile import read_mo, write_mo
 from babel.messages.pofile import read_po, write_po
 
 LOCALE = Path(__file__).resolve().parents[1] / "python/src/nurimc/cli/locale"
-LANGUAGES = ("ko", "en")  # en: an empty catalog, so that LANGUAGE=en:ko means English
+LANGUAGES = ("ko", "en")  # en: the texts as written, so that LANGUAGE=en:ko means English
 
 
 def wanted() -> list[tuple[str, str | None]]:
@@ -66,8 +66,8 @@ def update(lang: str, translations: dict[tuple[str, str | None], str] | None = N
     for text, context in wanted():
         kept = old.get(text, context)
         string = kept.string if kept is not None and kept.string else ""
-        if lang == "en":
-            string = ""
+        if lang == "en":  # each text as itself: gettext chains every language LANGUAGE lists, and a
+            string = text  # text missing here would be taken from the next one (en:ko would show Korean)
         elif translations and (text, context) in translations:
             string = translations[(text, context)]
         new.add(text, string, context=context)
