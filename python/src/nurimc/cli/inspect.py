@@ -66,7 +66,10 @@ def scan(
         TextColumn("{task.completed}/{task.total} " + tr("rates")),
         TimeElapsedColumn(),
     )
-    with open_bus(o) as bus, Progress(*columns, console=err, disable=o.json, transient=True) as bar:
+    with (
+        open_bus(o) as bus,
+        Progress(*columns, console=err, disable=o.json or not err.is_terminal, transient=True) as bar,
+    ):
         task = bar.add_task(tr("scanning"), total=len(rate_list))
         so_far: list[Any] = []
 
