@@ -119,7 +119,7 @@ class MotorProcedures:
         # rounded to the nearest step first, then range-checked (655.334 is 65533, allowed)
         position = units.degrees_to_wire(abs(degrees)) if math.isfinite(degrees) else POSITION_WIRE_MAX + 1
         if position > POSITION_WIRE_MAX:
-            raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
+            raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT}°")
         if rpm is not None:
             return PositionSpeed(self.id, _direction(degrees), position, self._speed_wire("move", rpm))
         assert seconds is not None
@@ -129,7 +129,7 @@ class MotorProcedures:
         """Speed command: signed RPM (CCW +), reached in ramp_seconds (§3)."""
         if rpm == 0:
             raise ValueOutOfRange(
-                "run", "rpm", rpm, "a non-zero speed (speed 0 is invalid: use release() or hold() to stop)"
+                "run", "rpm", rpm, "a non-zero speed (speed 0 is invalid for run(): stop() stops, release() lets go)"
             )
         return AccelSpeed(self.id, _direction(rpm), self._speed_wire("run", abs(rpm)), self._seconds_wire(ramp_seconds))
 
@@ -143,7 +143,7 @@ class MotorProcedures:
     def _speed_wire(self, what: str, rpm: float) -> int:
         raw = units.rpm_to_wire(abs(rpm)) if math.isfinite(rpm) else 0
         if not 1 <= raw <= 65533:
-            raise ValueOutOfRange(what, "rpm", rpm, f"{SPEED_MIN}..{SPEED_MAX} rpm")
+            raise ValueOutOfRange(what, "rpm", rpm, f"{SPEED_MIN}..{SPEED_MAX} RPM")
         return raw
 
     @staticmethod

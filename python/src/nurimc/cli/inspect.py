@@ -100,7 +100,8 @@ def _scan_report(o: Any, found: list[Any], guesses: dict[tuple[int, int], str], 
     rows = table(title, "ID", "baud", "firmware", "product (guess)", "note")
     for f in found:
         note = "several controllers share this ID" if f.collision else ""
-        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), guesses.get((f.id, f.baudrate), "?"), note)
+        firmware = "?" if f.firmware is None else str(f.firmware)  # not read yet when interrupted
+        rows.add_row(str(f.id), str(f.baudrate), firmware, guesses.get((f.id, f.baudrate), "?"), note)
     emit(
         o,
         [
@@ -241,21 +242,23 @@ def watch(
                 sys.stdout.write("\t".join(row) + "\n")
             sys.stdout.flush()
 
-        live: Live | None = None
-        if o.json or out.is_terminal:
-            live = Live(render(), console=err if o.json else out, auto_refresh=False, transient=o.json)
-        else:  # a file or a pipe: lines (tab-separated, a header first), not redraws of one table
-            sys.stdout.write("\t".join(WATCH_COLUMNS) + "\n")
-            stream()
-        n = 1
-        # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag)
-        with stop_flag() as stopped, live or contextlib.nullcontext():
-            while not (count and n >= count) and not stopped.wait(interval):
-                n += 1
-                if live is not None:
-                    live.update(render(), refresh=True)
-                else:
-                    stream()
+        # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag), from
+        # the first reading on (a reading that waits out a silent motor is when Ctrl+C comes)
+        with stop_flag() as stopped:
+            live: Live | None = None
+            if o.json or out.is_terminal:
+                live = Live(render(), console=err if o.json else out, auto_refresh=False, transient=o.json)
+            else:  # a file or a pipe: lines (tab-separated, a header first), not redraws of one table
+                sys.stdout.write("\t".join(WATCH_COLUMNS) + "\n")
+                stream()
+            n = 1
+            with live or contextlib.nullcontext():
+                while not (count and n >= count) and not stopped.wait(interval):
+                    n += 1
+                    if live is not None:
+                        live.update(render(), refresh=True)
+                    else:
+                        stream()
     emit(o, readings)
 
 
