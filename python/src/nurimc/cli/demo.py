@@ -95,8 +95,14 @@ def demo(
     out.print()
     out.print(f"released all motors. Bus statistics: {bus.stats.as_dict()}")
     me = invoked_as()
-    out.print(f"Next, a simulator that keeps running (Ctrl+C ends it): [bold]{me} sim --link /tmp/nurimc0 --ids 1,2[/]")
-    out.print(f"and, in another terminal from this folder: [bold]{me} --port /tmp/nurimc0 --id 1 status[/]")
+    # soft_wrap: a command is never broken over two lines (it would not work as printed)
+    out.print(
+        f"Next, a simulator that keeps running (Ctrl+C ends it): [bold]{me} sim --link /tmp/nurimc0 --ids 1,2[/]",
+        soft_wrap=True,
+    )
+    out.print(
+        f"and, in another terminal from this folder: [bold]{me} --port /tmp/nurimc0 --id 1 status[/]", soft_wrap=True
+    )
     bus.close()
     sim.close()
 
