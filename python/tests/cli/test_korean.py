@@ -112,4 +112,8 @@ def test_hostile_call_in_korean(expected: int, args: str, shows: str, tmp_path: 
     assert result.code == expected, f"nurimc {args}: {result.code}, expected {expected}: {result.err!r}"
     for line in result.err.splitlines():
         if line.startswith("오류: "):
-            assert HANGUL.search(line[4:]), f"nurimc {args}: not translated: {line!r}"
+            assert HANGUL.search(line[4:]), (
+                f"nurimc {args}: not translated: {line!r}. Add its template to nurimc/cli/messages.py "
+                "(PATTERNS), run scripts/catalogs.py --update, give its Korean in "
+                "cli/locale/ko/LC_MESSAGES/nurimc.po, then run scripts/catalogs.py"
+            )
