@@ -265,6 +265,8 @@ class MotorProcedures:
                 break  # speed 0 was ignored: the hold below stops it
             yield Wait(MOTION_POLL)
         yield from self.hold()
+        if (yield from self._position_mode_is_relative()):  # hold() only turned control on: a
+            yield from self.core.tell(self.make_move_to(0.0, rpm=HOLD_RPM))  # step of 0 holds here
         return (yield from self.wait_until_arrived(STOP_SETTLE, tolerance=math.inf))
 
     def release(self) -> Procedure[None]:

@@ -65,3 +65,18 @@ def test_a_move_that_cannot_arrive_in_time_raises_not_arrived() -> None:
         with pytest.raises(NotArrived, match=r"ID 1: not at -300° after 0.2 s \(it reads"):
             motor.move_to(-300, rpm=5, wait=True, timeout=0.2)
         motor.stop()
+
+
+@pytest.mark.parametrize("speed_zero", ["stop", "ignore"])
+def test_stop_in_relative_position_mode(speed_zero: str) -> None:
+    """In relative mode hold() only turns control on; stop() adds a step of 0, which holds."""
+    with Bus.open(url(speed_zero)) as bus:
+        motor = bus.motor(1)
+        motor.set("resolution", 1024)
+        motor.set("position-mode", "relative")
+        motor.run(120, 0.2)
+        time.sleep(0.6)
+        at_rest = motor.stop()
+        time.sleep(0.3)
+        assert abs(motor.read_speed()) < 1
+        assert abs(motor.read_state().device_position - at_rest.device_position) < 1
