@@ -57,7 +57,7 @@ $(LINT_NPM): tools/lint/package.json tools/lint/package-lock.json
 	touch $@
 
 lint-js: $(LINT_NPM)  ## Biome (lint + format) over the TypeScript library, the console's JS and the e2e scripts
-	$(BIOME) ci --reporter=summary .
+	$(BIOME) ci --reporter=summary $(if $(shell test -t 1 && echo tty),,--colors=off) .
 
 lint-c: $(STAMP)  ## clang-format (pinned in the venv) over the hand-written C; gcc's static analyzer over the library
 	$(VENV)/bin/clang-format --dry-run -Werror $(C_FORMATTED)

@@ -32,6 +32,7 @@ from pathlib import Path
 PING_ID0 = "fffe00025da0"  # the frame the TS check encodes (spec/protocol.json: ping ID 0)
 WHEEL_MUST_HOLD = (
     "nurimc/py.typed",
+    "nurimc/cli/locale/ko/LC_MESSAGES/nurimc.mo",  # the CLI in Korean (docs/cli.md, Language)
     "nurimc/dashboard/static/index.html",
     "nurimc/dashboard/static/app.js",
     "nurimc/dashboard/static/views/motors.js",
@@ -196,7 +197,11 @@ def main(dist: Path) -> int:
             state = json.loads(run(status, scratch, env))
             if state.get("id") != 1 or "position_deg" not in state.get("state", {}):
                 raise RuntimeError(f"unexpected status: {state}")
-            return f"nurimc {version}; status from sim:// ok"
+            korean_env = {**env, "LANGUAGE": "", "LC_ALL": "", "LC_MESSAGES": "", "LANG": "ko_KR.UTF-8"}
+            korean = run([str(nurimc), "--help"], scratch, korean_env)
+            if "사용법:" not in korean:
+                raise RuntimeError(f"LANG=ko_KR.UTF-8 nurimc --help is not in Korean: {korean[:200]!r}")
+            return f"nurimc {version}; status from sim:// ok; help in Korean"
 
         def extra_hint() -> str:
             proc = subprocess.run(

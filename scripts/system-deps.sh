@@ -13,4 +13,19 @@ if [ "$(id -u)" != 0 ]; then
 fi
 echo "installing: ${missing[*]}"
 apt-get update -qq
-DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+install() { DEBIAN_FRONTEND=noninteractive apt-get install -y -qq -o DPkg::Lock::Timeout=600 "$@" >/dev/null; }
+if ! install "${missing[@]}"; then
+  # Some machines delete downloaded archives after every dpkg run, so an install that needs several
+  # runs can find its archives gone: retry once with a fresh download, then name what failed.
+  echo "apt-get install failed; retrying once with a fresh download" >&2
+  apt-get clean
+  apt-get update -qq
+  if ! install "${missing[@]}"; then
+    failed=()
+    for pkg in "${missing[@]}"; do install "$pkg" || failed+=("$pkg"); done
+    if [ ${#failed[@]} -gt 0 ]; then
+      echo "could not install Debian package(s): ${failed[*]} (see apt-get's messages above); try: apt-get install ${failed[*]}" >&2
+      exit 1
+    fi
+  fi
+fi

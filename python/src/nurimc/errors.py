@@ -15,6 +15,7 @@ __all__ = [
     "IdInUse",
     "InputError",
     "NoAnswer",
+    "NotArrived",
     "NurimcError",
     "PortError",
     "ProtocolError",
@@ -136,3 +137,8 @@ class PortLost(PortError):
     """The port went away (adapter unplugged or reset, EIO, broken pipe) and is being reopened in
     the background (Bus.open(..., reconnect=True)); the call was not carried out. Calls fail with
     this at once until the port is back (docs/library.md, "Reconnect")."""
+
+
+class NotArrived(NurimcError, TimeoutError):
+    """A motion did not come to rest (at its target) within the time given: wait_until_arrived()
+    or stop(). The message says where the motor is and what to try."""

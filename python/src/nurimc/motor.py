@@ -16,14 +16,16 @@ from typing import Any, Concatenate, Generic, ParamSpec, Protocol, TypeVar, over
 
 from .client.actions import Now, Procedure, Wait
 from .client.core import BusCore
-from .errors import InputError, NoAnswer, SettingNotApplied, ValueOutOfRange
+from .errors import InputError, NoAnswer, NotArrived, SettingNotApplied, ValueOutOfRange
 from .multiturn import TurnTracker, signed_degrees
 from .protocol import (
     PRODUCTS,
+    AccelSpeed,
     Command,
     Message,
     ProductSpec,
     Request,
+    build_frame,
     product_line,
     units,
 )
@@ -37,6 +39,37 @@ ARRIVAL_MIN, ARRIVAL_MAX = LIMITS["arrival_s_min"], LIMITS["arrival_s_max"]
 EEPROM_SETTLE = 0.05  # kept for callers; the bus core now waits out each ID's busy window itself
 VERIFY_WINDOW = 0.4  # how long a read-back may keep failing while the EEPROM write finishes
 HOLD_RPM = 10.0
+#: A motor reading below this speed is at rest (the wire's speed step is 0.1 RPM).
+STOPPED_RPM = 1.0
+#: How far from its target a motor at rest may read and still have arrived, degrees.
+ARRIVAL_TOLERANCE = 1.0
+#: How often wait_until_arrived() and stop() read the motor while waiting, seconds.
+MOTION_POLL = 0.05
+#: The default time wait_until_arrived() gives a move, seconds.
+ARRIVAL_TIMEOUT = 30.0
+#: stop(): after the ramp, how long speed 0 may take to show before the hold takes over, and
+#: how long the hold may take to bring the motor to rest, seconds.
+STOP_MARGIN = 0.3
+STOP_SETTLE = 3.0
+
+
+class SpeedZero(AccelSpeed):
+    """§3 with speed 0: come to rest over the ramp time. The vendor's own programs stop a motor
+    this way and its simulator decelerates on it, while the document's speed range starts at 1
+    (docs/library.md, Stopping); built here because the generated message keeps to the document."""
+
+    __slots__ = ()
+
+    def encode(self) -> bytes:
+        if not 0 <= self.id <= 0xFF or self.direction not in (0, 1) or not 1 <= self.arrival_time <= 255:
+            raise ValueOutOfRange("stop", "ramp", self.arrival_time / 10, f"{ARRIVAL_MIN}..{ARRIVAL_MAX} s")
+        return build_frame(self.id, self.SPEC.mode, self.SPEC.layout.pack(self.direction, 0, self.arrival_time))
+
+
+@functools.cache
+def _speed_zero_class(ramped: type[Command]) -> type[Command]:
+    """SpeedZero for another line's ramped-speed message (its own mode byte, the same layout)."""
+    return type(f"{ramped.__name__}SpeedZero", (ramped,), {"__slots__": (), "encode": SpeedZero.encode})
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,6 +104,13 @@ def _unsupported(line: str, title: str, device_id: int, what: str, name: str) ->
     return f"ID {device_id} is an {title}: the {title} line has no {name} ({what}); nothing was sent"
 
 
+def _distance(a: float, b: float) -> float:
+    """Degrees between two device positions (the register wraps at ±655.36)."""
+    turn = 2 * 655.36
+    d = (a - b) % turn
+    return min(d, turn - d)
+
+
 class MotorProcedures:
     """Everything a motor handle does, as procedures on a BusCore."""
 
@@ -85,6 +125,7 @@ class MotorProcedures:
         self.line = product_line(product)
         self.tracker = TurnTracker()
         self._relative: bool | None = None  # position mode, read before the first move
+        self._target: float | None = None  # the last move's target, device degrees (None: a speed)
 
     # -- builders (no I/O) --------------------------------------------------
     def _message(self, name: str, what: str, **fields: int) -> Message:
@@ -111,7 +152,7 @@ class MotorProcedures:
         # rounded to the nearest step first, then range-checked (655.334 is 65533, allowed)
         position = units.degrees_to_wire(abs(degrees)) if math.isfinite(degrees) else POSITION_WIRE_MAX + 1
         if position > POSITION_WIRE_MAX:
-            raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT} deg")
+            raise ValueOutOfRange("move", "degrees", degrees, f"-{POSITION_LIMIT}..{POSITION_LIMIT}°")
         if rpm is not None:
             speed = self._speed_wire("move", rpm)
             return self._command(
@@ -127,7 +168,7 @@ class MotorProcedures:
         """Speed command: signed RPM (CCW +), reached in ramp_seconds (§3)."""
         if rpm == 0:
             raise ValueOutOfRange(
-                "run", "rpm", rpm, "a non-zero speed (speed 0 is invalid: use release() or hold() to stop)"
+                "run", "rpm", rpm, "a non-zero speed (speed 0 is invalid for run(): stop() stops, release() lets go)"
             )
         speed, arrival = self._speed_wire("run", abs(rpm)), self._seconds_wire(ramp_seconds)
         return self._command("accel_speed", "run", direction=_direction(rpm), speed=speed, arrival_time=arrival)
@@ -135,10 +176,17 @@ class MotorProcedures:
     def make_release(self) -> Command:
         return self._command("set_control", "release", control=1)
 
+    def make_stop(self, ramp_seconds: float = 0.5) -> Command:
+        """Speed 0 reached in ramp_seconds (§3 with speed 0: see stop()), in the motor's line."""
+        arrival = self._seconds_wire(ramp_seconds)
+        ramped = self._command("accel_speed", "stop", direction=0, speed=1, arrival_time=arrival)
+        zero = SpeedZero if type(ramped) is AccelSpeed else _speed_zero_class(type(ramped))
+        return zero(self.id, 0, 0, arrival)
+
     def _speed_wire(self, what: str, rpm: float) -> int:
         raw = units.rpm_to_wire(abs(rpm)) if math.isfinite(rpm) else 0
         if not 1 <= raw <= 65533:
-            raise ValueOutOfRange(what, "rpm", rpm, f"{SPEED_MIN}..{SPEED_MAX} rpm")
+            raise ValueOutOfRange(what, "rpm", rpm, f"{SPEED_MIN}..{SPEED_MAX} RPM")
         return raw
 
     @staticmethod
@@ -166,30 +214,112 @@ class MotorProcedures:
         if released:
             yield from self.core.tell(self._command("set_control", "control on", control=0))
 
-    def move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Procedure[None]:
-        """Go to an absolute signed position (in the device's frame, ±655.33 deg)."""
+    def move_to(
+        self,
+        degrees: float,
+        rpm: float | None = None,
+        seconds: float | None = None,
+        *,
+        wait: bool = False,
+        timeout: float = ARRIVAL_TIMEOUT,
+    ) -> Procedure[None]:
+        """Go to an absolute signed position (in the device's frame, ±655.33 deg). With
+        wait=True, return once the motor is at rest there (see wait_until_arrived())."""
         command = self.make_move_to(degrees, rpm, seconds)  # refused before any I/O on a speed-only line
         if (yield from self._position_mode_is_relative()):
             state = yield from self.read_state()
             command = self.make_move_to(degrees - state.device_position, rpm, seconds)
         yield from self._enable_if_released()
         yield from self.core.tell(command)
+        self._target = degrees
+        if wait:
+            yield from self.wait_until_arrived(timeout)
 
-    def move_by(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Procedure[None]:
-        """Move by a signed amount from where the motor is."""
+    def move_by(
+        self,
+        degrees: float,
+        rpm: float | None = None,
+        seconds: float | None = None,
+        *,
+        wait: bool = False,
+        timeout: float = ARRIVAL_TIMEOUT,
+    ) -> Procedure[None]:
+        """Move by a signed amount from where the motor is. With wait=True, return once the
+        motor is at rest there (see wait_until_arrived())."""
         self.make_move_to(degrees, rpm, seconds)  # checks the line has position commands, before any I/O
+        state = yield from self.read_state()
+        target = state.device_position + degrees
         if (yield from self._position_mode_is_relative()):
             command = self.make_move_to(degrees, rpm, seconds)
         else:
-            state = yield from self.read_state()
-            command = self.make_move_to(state.device_position + degrees, rpm, seconds)
+            command = self.make_move_to(target, rpm, seconds)
         yield from self._enable_if_released()
         yield from self.core.tell(command)
+        self._target = target
+        if wait:
+            yield from self.wait_until_arrived(timeout)
+
+    def wait_until_arrived(
+        self, timeout: float = ARRIVAL_TIMEOUT, tolerance: float = ARRIVAL_TOLERANCE
+    ) -> Procedure[MotorState]:
+        """Read the motor until it is at rest (two readings in a row under 1 RPM) within
+        `tolerance` degrees of the last move's target; the last reading. NotArrived after
+        `timeout` seconds, saying where the motor is. After run(), waits for rest anywhere."""
+        start: float = yield Now()
+        at_rest = 0
+        while True:
+            state = yield from self.read_state()
+            there = self._target is None or _distance(state.device_position, self._target) <= tolerance
+            at_rest = at_rest + 1 if there and state.speed < STOPPED_RPM else 0
+            if at_rest >= 2:
+                return state
+            now: float = yield Now()
+            if now - start >= timeout:
+                goal = "at rest" if self._target is None else f"at {self._target:g}°"
+                raise NotArrived(
+                    f"ID {self.id}: not {goal} after {timeout:g} s (it reads {state.device_position:g}° at "
+                    f"{state.speed:g} RPM); give a longer timeout, or check the load, the gains and the rated current"
+                )
+            yield Wait(MOTION_POLL)
 
     def run(self, rpm: float, ramp_seconds: float = 0.1) -> Procedure[None]:
         command = self.make_run(rpm, ramp_seconds)
         yield from self._enable_if_released()
         yield from self.core.tell(command)
+        self._target = None
+
+    def stop(self, ramp_seconds: float = 0.5) -> Procedure[MotorState]:
+        """Come to rest and hold there, whichever way the firmware reads speed 0.
+
+        Sends speed 0 over `ramp_seconds` (how the vendor's programs stop; its simulator
+        decelerates), reads the speed back until it is under 1 RPM or the ramp has passed
+        (a firmware keeping to the document's range 1.. ignores speed 0), then holds the
+        present position, which brings either kind to rest. Returns the reading at rest;
+        NotArrived if the motor still turns 3 s after the hold. release() lets go instead."""
+        command = self.make_stop(ramp_seconds)
+        yield from self.core.tell(command)
+        self._target = None
+        start: float = yield Now()
+        while True:
+            speed = yield from self.read_speed()
+            if abs(speed) < STOPPED_RPM:
+                break
+            now: float = yield Now()
+            if now - start >= ramp_seconds + STOP_MARGIN:
+                break  # speed 0 was ignored: the hold below stops it
+            yield Wait(MOTION_POLL)
+        if not self.line.has("position_speed"):  # a speed-only line (SM) has no position to hold
+            state = yield from self.read_state()
+            if abs(state.speed) >= STOPPED_RPM:
+                raise NotArrived(
+                    f"ID {self.id}: still turning at {state.speed:g} RPM after speed 0 over {ramp_seconds:g} s "
+                    "(this firmware ignores speed 0 and an SM cannot hold a position); release() lets it coast"
+                )
+            return state
+        yield from self.hold()
+        if (yield from self._position_mode_is_relative()):  # hold() only turned control on: a
+            yield from self.core.tell(self.make_move_to(0.0, rpm=HOLD_RPM))  # step of 0 holds here
+        return (yield from self.wait_until_arrived(STOP_SETTLE, tolerance=math.inf))
 
     def release(self) -> Procedure[None]:
         """Control off: the motor is no longer driven and coasts to a stop."""
@@ -200,6 +330,7 @@ class MotorProcedures:
         if not self.line.has("position_speed"):  # a speed-only line (SM): nothing to hold a position with
             raise InputError(_unsupported(self.line.key, self.line.title, self.id, "hold", "position_speed"))
         yield from self.core.tell(self._command("set_control", "hold", control=0))
+        self._target = None
         if (yield from self._position_mode_is_relative()):
             return
         state = yield from self.read_state()
@@ -405,6 +536,7 @@ class MotorApi:
         self.make_move_to = self.procedures.make_move_to
         self.make_run = self.procedures.make_run
         self.make_release = self.procedures.make_release
+        self.make_stop = self.procedures.make_stop
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(id={self.id}, product={self.procedures.profile.key!r})"
@@ -412,6 +544,8 @@ class MotorApi:
     move_to = _Call(MotorProcedures.move_to)
     move_by = _Call(MotorProcedures.move_by)
     run = _Call(MotorProcedures.run)
+    wait_until_arrived = _Call(MotorProcedures.wait_until_arrived)
+    stop = _Call(MotorProcedures.stop)
     release = _Call(MotorProcedures.release)
     hold = _Call(MotorProcedures.hold)
     read_state = _Call(MotorProcedures.read_state)

@@ -24,7 +24,7 @@ class Result:
 
     @property
     def errors(self) -> list[str]:
-        return [line for line in self.err.splitlines() if line.startswith("error: ")]
+        return [line for line in self.err.splitlines() if line.startswith(("error: ", "오류: "))]
 
 
 def nurimc(*args: str) -> Result:
@@ -43,13 +43,13 @@ def nurimc(*args: str) -> Result:
     return Result(code, out.getvalue(), err.getvalue())
 
 
-def assert_clean(result: Result, *args: str) -> None:
+def assert_clean(result: Result, *args: str, prefixes: tuple[str, ...] = PREFIXES) -> None:
     """The promise for any input: exit 0, 1 or 2; no traceback; stderr made of one-line messages,
     at most one error, and exactly one when the exit code is not 0 (-v adds frame lines: -> and <-)."""
     where = f"nurimc {' '.join(args)!r} -> {result.code}: {result.err!r}"
     assert result.code in (0, 1, 2), where
     assert "Traceback" not in result.err and "Traceback" not in result.out, where
     lines = [line for line in result.err.splitlines() if line.strip() and not line.startswith(("-> ", "<- "))]
-    assert all(line.startswith(PREFIXES) for line in lines), where
+    assert all(line.startswith(prefixes) for line in lines), where
     assert len(result.errors) == (0 if result.code == 0 else 1), where
     assert "this is a bug" not in result.err, where  # an exception no check knew about

@@ -87,7 +87,7 @@ def test_move_then_watch_shows_the_motion(pty) -> None:  # type: ignore[no-untyp
     assert abs(readings[-1]["position_deg"] - 45) < 0.5  # type: ignore[index]
     assert cli("--id", "1", "move", "--by", "--seconds", "0.3", "--", "-15", port=pty[1]).returncode == 0
     assert cli("--id", "1", "run", "--ramp", "0.2", "--", "-60", port=pty[1]).returncode == 0
-    assert cli("--id", "1", "stop", port=pty[1]).returncode == 0
+    assert cli("--id", "1", "release", port=pty[1]).returncode == 0
     assert ok_json("--id", "1", "get", "control", port=pty[1])["value"] == "off"  # type: ignore[index]
     assert cli("--id", "1", "hold", port=pty[1]).returncode == 0
     assert ok_json("--id", "1", "get", "control", port=pty[1])["value"] == "on"  # type: ignore[index]

@@ -122,6 +122,8 @@ NUMERIC: list[tuple[str, list[str], Callable[[str], bool] | None]] = [
     ("move --seconds", ["--port", NO_PORT, "--id", "1", "move", "90", "--seconds", "V"], SECONDS),
     ("run rpm", ["--port", NO_PORT, "--id", "1", "run", "V"], None),  # |rpm| >= 0.1 after rounding
     ("run --ramp", ["--port", NO_PORT, "--id", "1", "run", "100", "--ramp", "V"], SECONDS),
+    ("move --timeout", ["--port", NO_PORT, "--id", "1", "move", "90", "--wait", "--timeout", "V"], in_range(0.1, 3600)),
+    ("stop --ramp", ["--port", NO_PORT, "--id", "1", "stop", "--ramp", "V"], SECONDS),
     ("watch --interval", ["--port", NO_PORT, "--id", "1", "watch", "--interval", "V"], in_range(0.01, 3600)),
     ("watch --count", ["--port", NO_PORT, "--id", "1", "watch", "--count", "V"], in_range(0, 1e6, whole=True)),
     ("scan --rates", ["--port", NO_PORT, "scan", "--rates", "V"], None),  # a list

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import gettext
 import signal
 import sys
 import traceback
@@ -38,6 +39,7 @@ from .common import (
     parse_ids,
     say_error,
 )
+from .i18n import DOMAIN, LOCALE_DIR, activated, tr, translate_help
 
 #: Every module of commands (in nurimc.cli), in the order `nurimc --help` lists them.
 COMMAND_MODULES = (
@@ -127,10 +129,15 @@ app.command()(version)
 
 
 @functools.cache
+def _built(catalog_file: str | None) -> Any:
+    """The click command typer builds from `app`, built once per language (16 ms each time:
+    the in-process tests call main() thousands of times), its help in that language."""
+    command = typer.main.get_command(app)
+    return translate_help(command) if catalog_file else command
+
+
 def _command() -> Any:
-    """The click command typer builds from `app`, built once (16 ms each time: the in-process
-    tests call main() thousands of times)."""
-    return typer.main.get_command(app)
+    return _built(gettext.find(DOMAIN, LOCALE_DIR))
 
 
 def _usage_line(error: Exception) -> str:
@@ -183,6 +190,8 @@ def main(args: list[str] | None = None) -> None:
     """Run the CLI: every failure is one line on stderr and an exit code, never a traceback
     (unless -v/--verbose asks for one, after that line)."""
     args = global_flags_first(list(sys.argv[1:] if args is None else args))
+    if not args:
+        args = ["--help"]  # `nurimc` alone: the normal help, on stdout, exit 0
     before = args[: args.index("--")] if "--" in args else args
     verbose = "-v" in before or "--verbose" in before
     _invoked[0] = ""
@@ -190,6 +199,8 @@ def main(args: list[str] | None = None) -> None:
     if previous is signal.SIG_DFL:
         signal.signal(signal.SIGTERM, _on_sigterm)
     code = EXIT_OK
+    language = activated()
+    language.__enter__()
     try:
         result = _command().main(args=args, prog_name="nurimc", standalone_mode=False)
         code = result if isinstance(result, int) else EXIT_OK
@@ -206,7 +217,7 @@ def main(args: list[str] | None = None) -> None:
             say_error("terminated (SIGTERM) before the command finished")
             code = EXIT_TERMINATED
     except KeyboardInterrupt:
-        err.print("interrupted")
+        err.print(tr("interrupted"))
         code = 130
     except NurimcError as error:
         say_error(error)
@@ -229,6 +240,7 @@ def main(args: list[str] | None = None) -> None:
         if verbose:
             traceback.print_exc()
     finally:
+        language.__exit__(None, None, None)
         with contextlib.suppress(OSError, AttributeError):
             sys.stdout.flush()
         if previous is signal.SIG_DFL:

@@ -8,13 +8,18 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import signal
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
+import rich.table
 import typer
 from rich.console import Console
-from rich.table import Table
 from rich.text import Text
 
 from ..client.sync import Bus
@@ -24,9 +29,11 @@ from ..motor import Motor
 from ..products import detect_line
 from ..protocol import BAUD_RATES, StreamParser
 from ..transport import RS485
+from .i18n import tr
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
 EXIT_TERMINATED = 143  # SIGTERM during a one-shot command (128 + 15, the shell's convention)
+EXIT_INTERRUPTED = 130  # Ctrl+C (128 + SIGINT)
 
 #: The longest error line we print; past it the message is cut (it stays one line).
 MESSAGE_LIMIT = 400
@@ -44,6 +51,26 @@ class Terminated(BaseException):
 
 #: Ctrl+C and SIGTERM: what long-running commands (watch, sniff) treat as "stop now, report".
 STOP = (KeyboardInterrupt, Terminated)
+
+
+@contextmanager
+def stop_flag() -> Iterator[threading.Event]:
+    """For commands that loop until Ctrl+C or SIGTERM (watch): the signal only sets this flag and
+    the loop ends at its next boundary. An exception raised by the signal could land anywhere,
+    e.g. inside a transaction or while a lock of the in-process simulator is held, and the
+    cleanup after it could then wait on that lock (seen as a watch not stopping under load)."""
+    flag = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield flag
+        return
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in saved:
+        signal.signal(sig, lambda *_: flag.set())
+    try:
+        yield flag
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
 
 
 @dataclass
@@ -65,12 +92,13 @@ def one_line(message: object) -> str:
 
 
 def say_error(message: object) -> None:
-    err.print(Text.assemble(("error:", "bold red"), " ", one_line(message)), soft_wrap=True)
+    """One line on stderr, `error: ...`, in the language in use (nurimc.cli.i18n)."""
+    err.print(Text.assemble((tr("error:"), "bold red"), " ", one_line(tr(one_line(message)))), soft_wrap=True)
 
 
 def note(message: str) -> None:
     """Something the person should know but that is not an error (e.g. a value the wire rounds)."""
-    err.print(Text.assemble(("note:", "yellow"), " ", one_line(message)), soft_wrap=True)
+    err.print(Text.assemble((tr("note:"), "yellow"), " ", one_line(tr(one_line(message)))), soft_wrap=True)
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
@@ -182,7 +210,7 @@ def open_bus(o: Options, reconnect: bool = False) -> Bus:
     bus = Bus.open(port, baudrate=o.baud, tracer=tracer, rs485=rs485, reconnect=reconnect)
     warning = getattr(bus.transport, "warning", None)
     if warning:
-        err.print(Text.assemble(("warning:", "yellow"), " ", one_line(warning)), soft_wrap=True)
+        err.print(Text.assemble((tr("warning:"), "yellow"), " ", one_line(tr(one_line(warning)))), soft_wrap=True)
     return bus
 
 
@@ -209,18 +237,41 @@ def one_id(o: Options) -> int:
     return o.ids[0]
 
 
-def emit(o: Options, data: Any, table: Table | str | None = None) -> None:
+def emit(o: Options, data: Any, table: rich.table.Table | str | None = None) -> None:
     """One JSON document on stdout with --json; otherwise the table (or text) for people."""
     if o.json:
         sys.stdout.write(json.dumps(data, indent=2, default=str) + "\n")
     elif isinstance(table, str):
-        out.print(table, markup=False, soft_wrap=True)
+        out.print(tr(table), markup=False, soft_wrap=True)
     elif table is not None:
+        if table.title:  # a line of its own: as a table title it would wrap to the columns' width
+            out.print(tr(str(table.title)), markup=False, soft_wrap=True)
+            table.title = None
         out.print(table)
+
+
+MARKED = re.compile(r"(\[[a-z ]+\])(.*)(\[/\])\Z", re.DOTALL)
+
+
+def _cell(value: Any) -> Any:
+    """A table cell in the language in use (`[red]no answer[/]` keeps its markup)."""
+    if not isinstance(value, str):
+        return value
+    marked = MARKED.match(value)
+    if marked:
+        return marked.group(1) + tr(marked.group(2)) + marked.group(3)
+    return tr(value)
+
+
+class Table(rich.table.Table):
+    """A rich table whose headers and cells are shown in the language in use."""
+
+    def add_row(self, *renderables: Any, **options: Any) -> None:
+        super().add_row(*(_cell(r) for r in renderables), **options)
 
 
 def table(title: str | None, *columns: str) -> Table:
     t = Table(title=title, title_justify="left")
     for column in columns:
-        t.add_column(column)
+        t.add_column(tr(column))
     return t

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -93,11 +94,31 @@ def demo(
         motor.release()
     out.print()
     out.print(f"released all motors. Bus statistics: {bus.stats.as_dict()}")
+    me = invoked_as()
+    # soft_wrap: a command is never broken over two lines (it would not work as printed)
     out.print(
-        "Next: [bold]nurimc sim --link /tmp/nurimc0 --ids 1,2[/] and [bold]nurimc --port /tmp/nurimc0 --id 1 status[/]"
+        f"Next, a simulator that keeps running (Ctrl+C ends it): [bold]{me} sim --link /tmp/nurimc0 --ids 1,2[/]",
+        soft_wrap=True,
+    )
+    out.print(
+        f"and, in another terminal from this folder: [bold]{me} --port /tmp/nurimc0 --id 1 status[/]", soft_wrap=True
     )
     bus.close()
     sim.close()
+
+
+def invoked_as() -> str:
+    """How to type this program again from here: `nurimc` if that is on PATH and is this one,
+    else its path (`make demo` runs .venv/bin/nurimc, which is not on PATH)."""
+    exe = Path(sys.argv[0])
+    found = shutil.which("nurimc")
+    if found and exe.exists() and Path(found).resolve() == exe.resolve():
+        return "nurimc"
+    if not exe.exists():
+        return "nurimc"
+    relative = os.path.relpath(exe)
+    path = relative if len(relative) < len(str(exe.absolute())) else str(exe.absolute())
+    return path if "/" in path else f"./{path}"
 
 
 def bench(

@@ -10,10 +10,12 @@ from typing import Any
 import typer
 
 from ..errors import InputError, PortLost
-from ..inputs import field_value, integer, json_document, number, show
+from ..inputs import UNIT_SHOWN, field_value, integer, json_document, number, show, with_unit
 from ..outage import OutageGuard, stderr_line
-from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, decode, make
-from .common import STOP, Number, emit, fail, open_bus, options, table
+from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, build_frame, decode, make
+from .common import STOP, Number, emit, fail, note, open_bus, options, table
+
+BROADCAST = 0xFF
 
 #: A traffic log line longer than this is not one we wrote (a line holds one read or write).
 LOG_LINE_LIMIT = 1 << 20
@@ -29,6 +31,10 @@ def _describe(message: Message) -> dict[str, Any]:
         "fields": message.fields(),
         "physical": message.physical(),
     }
+
+
+def _shown(value: object, unit: str) -> str:
+    return with_unit(value, unit) if isinstance(value, int | float) else str(value)
 
 
 def _valid(message: Message) -> bool:
@@ -70,7 +76,7 @@ def decode_(
         physical = message.physical()
         fields: dict[str, int | str] = {**message.fields()} or {"—": ""}
         for i, (name, raw) in enumerate(fields.items()):
-            unit = next((f.unit for f in message.SPEC.fields if f.name == name), "")
+            unit = UNIT_SHOWN.get(next((f.unit for f in message.SPEC.fields if f.name == name), ""), "")
             erratum = message.name == "speed_feedback" and name == "position"
             note = " (0.1° units as printed, erratum 6)" if erratum else ""
             rows.add_row(
@@ -78,7 +84,7 @@ def decode_(
                 str(message.id) if i == 0 else "",
                 name,
                 str(raw),
-                f"{physical.get(name, '')} {unit}{note}".strip(),
+                f"{_shown(physical.get(name, ''), unit)}{note}".strip(),
             )
     for problem in problems:
         rows.add_row("[red]error[/]", "", "", "", problem)
@@ -91,7 +97,9 @@ def encode(
     ctx: typer.Context,
     message: str = typer.Argument(..., help=f"Message name: {', '.join(SPECS)}."),
     values: list[str] = typer.Argument(
-        None, help="field=value: wire integers or with a unit (180deg, 100rpm, 2s, 8A)."
+        None,
+        help="field=value: a whole number is the wire integer; a decimal (12.5) or a unit (180deg, 100rpm, "
+        "2s, 8A) is a physical value, as `set` takes it.",
     ),
     device_id: int = typer.Option(0, "--to", help=f"ID to address ({TO.allowed}; 255 = broadcast).", parser=TO),
 ) -> None:
@@ -113,7 +121,14 @@ def encode(
             fields[name] = _wire_value(f"{message}.{name}", field, text)
         except InputError as error:
             fail(str(error))
-    frame = make(message, device_id, **fields).encode()
+    built = make(message, device_id if device_id != BROADCAST or spec.max_id == BROADCAST else 0, **fields)
+    if device_id == BROADCAST and spec.max_id != BROADCAST:
+        # a request to every controller: outside §17, yet every controller answers it, each after
+        # its response time (discovery and the staggered read send it; docs/protocol.md, Broadcast)
+        note(f"{message} to 255 (broadcast): every controller answers, each after its response time")
+        frame = build_frame(BROADCAST, spec.mode, spec.layout.pack(*built[1:]))
+    else:
+        frame = built.encode()
     emit(o, {"hex": frame.hex(), "message": message, "id": device_id, "fields": fields}, frame.hex(" ").upper())
 
 
@@ -213,9 +228,15 @@ def _wire_value(name: str, field: FieldSpec, text: str) -> int:
         return names[text.strip().lower()]
     try:
         float(text)
+        physical = not text.strip().lstrip("+-").isdigit()  # 12.5 or 1e3: a value, like `set`'s
     except ValueError:  # a unit, or not a number at all
+        physical = True
+    if physical:
         rounded = field_value(
-            text, name, FieldSpec(field.name, field.width, field.min, field.max, field.unit, field.scale)
+            text,
+            name,
+            FieldSpec(field.name, field.width, field.min, field.max, field.unit, field.scale),
+            whole=field.scale == 1,  # counts and IDs: no fractions
         )
         assert not isinstance(rounded, str)
         return rounded.wire

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import time
 from typing import Any
 
@@ -10,6 +12,7 @@ import typer
 from rich.live import Live
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.text import Text
 
 from ..client.sync import Bus
 from ..discovery import Progress as ScanProgress
@@ -22,8 +25,25 @@ from ..outage import OutageGuard, stderr_line
 from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
-from .common import STOP, Number, check_baud, emit, err, fail, motor_for, one_id, open_bus, options, parse_ids, table
+from .common import (
+    EXIT_INTERRUPTED,
+    Number,
+    check_baud,
+    emit,
+    err,
+    fail,
+    motor_for,
+    one_id,
+    one_line,
+    open_bus,
+    options,
+    out,
+    parse_ids,
+    stop_flag,
+    table,
+)
 from .common import note as tell_note
+from .i18n import tr
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
 COUNT = Number("--count", 0, 1_000_000, whole=True)
@@ -49,20 +69,30 @@ def scan(
     columns = (
         TextColumn("{task.description}"),
         BarColumn(),
-        TextColumn("{task.completed}/{task.total} rates"),
+        TextColumn("{task.completed}/{task.total} " + tr("rates")),
         TimeElapsedColumn(),
     )
-    with open_bus(o) as bus, Progress(*columns, console=err, disable=o.json, transient=True) as bar:
-        task = bar.add_task("scanning", total=len(rate_list))
+    with (
+        open_bus(o) as bus,
+        Progress(*columns, console=err, disable=o.json or not err.is_terminal, transient=True) as bar,
+    ):
+        task = bar.add_task(tr("scanning"), total=len(rate_list))
+        so_far: list[Any] = []
 
         def show(event: Any) -> None:
             if isinstance(event, ScanProgress):
+                so_far[:] = event.found
                 where = f"{event.rate} bps" + (f", ID {event.walking_id}" if event.walking_id is not None else "")
-                bar.update(task, completed=event.rate_index, description=f"{where}: {len(event.found)} found")
+                bar.update(task, completed=event.rate_index, description=tr(f"{where}: {len(event.found)} found"))
             elif isinstance(event, RateSkipped):  # the adapter cannot do this rate: say so once, go on
                 tell_note(f"{event.reason}; {event.rate} bps skipped")
 
-        found = bus.run(discover(bus.core, rate_list, id_list), on_note=show)
+        try:
+            found = bus.run(discover(bus.core, rate_list, id_list), on_note=show)
+        except KeyboardInterrupt:
+            bar.stop()
+            _scan_report(o, list(so_far), {}, interrupted=True)
+            raise typer.Exit(EXIT_INTERRUPTED) from None
         guesses = {}
         for f in found:
             bus.baudrate = f.baudrate
@@ -72,10 +102,19 @@ def scan(
             elif not f.collision:
                 guess = f.line
             guesses[(f.id, f.baudrate)] = guess
-    rows = table(f"{len(found)} controller(s) found", "ID", "baud", "firmware", "line", "product (guess)", "note")
+    _scan_report(o, found, guesses)
+
+
+def _scan_report(o: Any, found: list[Any], guesses: dict[tuple[int, int], str], interrupted: bool = False) -> None:
+    """The scan's table or JSON; after Ctrl+C, what was found until then (no product read)."""
+    if interrupted:
+        err.print(tr(f"interrupted: the scan stopped early; {len(found)} controller(s) found so far"))
+    title = f"{len(found)} controller(s) found" + (" (interrupted)" if interrupted else "")
+    rows = table(title, "ID", "baud", "firmware", "line", "product (guess)", "note")
     for f in found:
         note = "several controllers share this ID" if f.collision else DESCRIPTIONS.get(f.line, "")
-        rows.add_row(str(f.id), str(f.baudrate), str(f.firmware), f.line, guesses[(f.id, f.baudrate)], note)
+        firmware = "?" if f.firmware is None else str(f.firmware)  # not read yet when interrupted
+        rows.add_row(str(f.id), str(f.baudrate), firmware, f.line, guesses.get((f.id, f.baudrate), "?"), note)
     emit(
         o,
         [
@@ -85,7 +124,7 @@ def scan(
                 "firmware": f.firmware,
                 "collision": f.collision,
                 "line": f.line,
-                "product_guess": guesses[(f.id, f.baudrate)],
+                "product_guess": guesses.get((f.id, f.baudrate), "?"),
             }
             for f in found
         ],
@@ -94,15 +133,16 @@ def scan(
 
 
 def product_guess(bus: Bus, device_id: int) -> str:
-    """The protocol does not say which product answers. A guess from the resolution setting:
-    hall pole counts (BLMC-H) are small even numbers, encoder pulse counts (MC) usually are not."""
+    """The protocol does not say which product answers. A guess from the resolution setting, in the
+    words of --product and backups (mc, blmc-h): hall pole counts (BLMC-H) are small even numbers,
+    encoder pulse counts (MC) usually are not. The factory 4 tells nothing: mc, the default
+    profile, as `backup` writes without --product."""
     try:
         resolution = bus.motor(device_id).get("resolution")
     except NurimcError:
         return "?"
-    if resolution == 4:
-        return "unknown (default resolution 4)"
-    return "BLMC-H?" if isinstance(resolution, int) and resolution <= 24 and resolution % 2 == 0 else "MC?"
+    small_even = isinstance(resolution, int) and resolution != 4 and resolution <= 24 and resolution % 2 == 0
+    return "blmc-h" if small_even else "mc"
 
 
 def ping(ctx: typer.Context) -> None:
@@ -172,8 +212,8 @@ def status(ctx: typer.Context) -> None:
         rows.add_row(key, text)
     rows.add_section()
     rows.add_row("[bold]setting[/]", "")
-    for key, value in settings.items():
-        rows.add_row(f"{key}", _setting_text(key, value))
+    for key, value in settings.items():  # setting names as typed (`get firmware`): never translated
+        rows.add_row(Text(key), Text(_setting_text(key, value)))
     document = {
         "id": device_id,
         "baud": o.baud,
@@ -185,6 +225,9 @@ def status(ctx: typer.Context) -> None:
     emit(o, {**document, "incomplete_restore": unfinished} if unfinished else document, rows)
 
 
+WATCH_COLUMNS = ("ID", "position °", "speed RPM", "current A", "position sign")
+
+
 def watch(
     ctx: typer.Context,
     interval: float = typer.Option(0.1, help=f"Seconds between readings ({INTERVAL.allowed}).", parser=INTERVAL),
@@ -193,6 +236,8 @@ def watch(
     ),
 ) -> None:
     """Live table of one or many motors (Ctrl+C to stop).
+
+    On a terminal the table is redrawn; to a file or a pipe, each reading is a line per motor.
 
     Example: nurimc --port /dev/ttyUSB0 --id 1,2,3 watch
     """
@@ -204,30 +249,45 @@ def watch(
         motors = [bus.motor(i, o.product) for i in o.ids]
         outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each; every reading is fresh anyway
 
-        def render() -> Any:
-            rows = table(None, "ID", "position °", "speed RPM", "current A", "position sign")
+        def read_all() -> list[tuple[str, ...]]:
+            rows: list[tuple[str, ...]] = []
             for m in motors:
                 try:
                     s = m.read_state()
                     readings.append({"id": m.id, **_state_dict(s)})
-                    rows.add_row(str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction)
+                    rows.append((str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction))
                 except NurimcError as error:
-                    rows.add_row(
-                        str(m.id), "[red]no answer[/]", "", "", escape(str(error))
-                    )  # the whole error: its cause
+                    rows.append((str(m.id), "no answer", "", "", one_line(error)))  # the whole error: its cause
             return rows
 
-        n = 0
-        try:
-            with Live(render(), console=err if o.json else None, auto_refresh=False, transient=o.json) as live:
-                while True:
+        def render() -> Any:
+            rows = table(None, *WATCH_COLUMNS)
+            for row in read_all():
+                rows.add_row(*(escape(cell) for cell in row))
+            return rows
+
+        def stream() -> None:
+            for row in read_all():
+                sys.stdout.write("\t".join(row) + "\n")
+            sys.stdout.flush()
+
+        # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag), from
+        # the first reading on (a reading that waits out a silent motor is when Ctrl+C comes)
+        with stop_flag() as stopped:
+            live: Live | None = None
+            if o.json or out.is_terminal:
+                live = Live(render(), console=err if o.json else out, auto_refresh=False, transient=o.json)
+            else:  # a file or a pipe: lines (tab-separated, a header first), not redraws of one table
+                sys.stdout.write("\t".join(WATCH_COLUMNS) + "\n")
+                stream()
+            n = 1
+            with live or contextlib.nullcontext():
+                while not (count and n >= count) and not stopped.wait(interval):
                     n += 1
-                    if count and n >= count:
-                        break
-                    time.sleep(interval)
-                    live.update(render(), refresh=True)
-        except STOP:
-            pass  # Ctrl+C or SIGTERM: the normal end of watching
+                    if live is not None:
+                        live.update(render(), refresh=True)
+                    else:
+                        stream()
         outage.close()
     emit(o, readings)
 

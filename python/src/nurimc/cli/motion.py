@@ -1,4 +1,4 @@
-"""move, run, release (stop), hold: motion. Each needs an explicit --id."""
+"""move, run, stop, release, hold: motion. Each needs an explicit --id."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from typing import Any
 import typer
 
 from ..protocol.host import LIMITS
-from .common import Number, emit, fail, motor_for, one_id, open_bus, options
+from .common import InputBadParameter, Number, Options, emit, fail, motor_for, one_id, open_bus, options
 
 POSITION = LIMITS["position_deg"]
 RPM_MIN, RPM_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
@@ -18,9 +18,23 @@ RPM = Number("--rpm", RPM_MIN, RPM_MAX, "RPM", step=0.1)
 SECONDS = Number("--seconds", SECONDS_MIN, SECONDS_MAX, "s", step=0.1)
 SIGNED_RPM = Number("rpm", -RPM_MAX, RPM_MAX, "RPM", step=0.1)
 RAMP = Number("--ramp", SECONDS_MIN, SECONDS_MAX, "s", step=0.1)
+TIMEOUT = Number("--timeout", 0.1, 3600, "s")
 
 # `move -90` and `run -60`: a negative number is a value, not an option (see register()).
 NUMBERS_FIRST: dict[str, Any] = {"ignore_unknown_options": True}
+
+
+def _signed_rpm(value: Any) -> float:
+    """run's speed: exactly 0 stops; anything else must be a speed the wire can carry (0.04 RPM,
+    which the wire would round to 0, is refused rather than taken as a stop)."""
+    if isinstance(value, str) and value.strip() in ("0", "-0", "+0", "0.0", "-0.0", "+0.0"):
+        return 0.0
+    rpm: float = SIGNED_RPM(value)
+    if abs(rpm) < RPM_MIN:
+        raise InputBadParameter(
+            f"rpm: {value} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way, or 0 to stop"
+        )
+    return rpm
 
 
 def move(
@@ -37,6 +51,8 @@ def move(
         help=f"Arrival time instead of --rpm: {SECONDS.allowed}.",
         parser=SECONDS,
     ),
+    wait: bool = typer.Option(False, "--wait", help="Return once the motor is at rest at the target."),
+    timeout: float = typer.Option(30.0, help=f"With --wait: give up after {TIMEOUT.allowed}.", parser=TIMEOUT),
 ) -> None:
     """Move to a position (or by an amount) at a speed or in a time.
 
@@ -49,22 +65,31 @@ def move(
         rpm = 30.0  # a gentle default
     with open_bus(o) as bus:
         motor = motor_for(bus, o, one_id(o))
-        (motor.move_by if by else motor.move_to)(degrees, rpm=rpm, seconds=seconds)
+        (motor.move_by if by else motor.move_to)(degrees, rpm=rpm, seconds=seconds, wait=wait, timeout=timeout)
+        state = motor.read_state() if wait else None
     what = f"by {degrees}°" if by else f"to {degrees}°"
     how = f"at {rpm} RPM" if rpm is not None else f"in {seconds} s"
-    emit(
-        o,
-        {"id": motor.id, "move": "by" if by else "to", "degrees": degrees, "rpm": rpm, "seconds": seconds},
-        f"ID {motor.id}: moving {what} {how}",
-    )
+    data: dict[str, Any] = {
+        "id": motor.id,
+        "move": "by" if by else "to",
+        "degrees": degrees,
+        "rpm": rpm,
+        "seconds": seconds,
+    }
+    if state is not None:
+        data["arrived_deg"] = state.device_position
+    text = f"ID {motor.id}: moving {what} {how}"
+    if state is not None:
+        text = f"ID {motor.id}: arrived at {state.device_position:g}° (moved {what} {how})"
+    emit(o, data, text)
 
 
 def run(
     ctx: typer.Context,
     rpm: float = typer.Argument(
         ...,
-        help=f"Speed, CCW positive: {SIGNED_RPM.allowed}; not 0 (to stop: release).",
-        parser=SIGNED_RPM,
+        help=f"Speed, CCW positive: {SIGNED_RPM.allowed}; 0 stops (as `stop`).",
+        parser=_signed_rpm,
     ),
     ramp: float = typer.Option(0.5, help=f"Time to reach the speed: {RAMP.allowed}.", parser=RAMP),
 ) -> None:
@@ -73,11 +98,33 @@ def run(
     Example: nurimc --port /dev/ttyUSB0 --id 1 run -120 --ramp 1
     """
     o = options(ctx)
-    if abs(rpm) < RPM_MIN:
-        fail(f"rpm: {rpm} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way (to stop: release)")
+    if rpm == 0:
+        _stop(o, ramp)
+        return
     with open_bus(o) as bus:
         motor_for(bus, o, one_id(o)).run(rpm, ramp)
     emit(o, {"id": o.ids[0], "rpm": rpm, "ramp_s": ramp}, f"ID {o.ids[0]}: running at {rpm} RPM")
+
+
+def stop(
+    ctx: typer.Context,
+    ramp: float = typer.Option(0.5, help=f"Time to slow down: {RAMP.allowed}.", parser=RAMP),
+) -> None:
+    """Slow to a stop and hold there (speed 0, read back, then hold; see docs/cli.md).
+
+    Example: nurimc --port /dev/ttyUSB0 --id 1 stop
+    """
+    _stop(options(ctx), ramp)
+
+
+def _stop(o: Options, ramp: float) -> None:
+    with open_bus(o) as bus:
+        state = bus.motor(one_id(o), o.product).stop(ramp)
+    emit(
+        o,
+        {"id": o.ids[0], "stopped": True, "position_deg": state.device_position, "control": "on"},
+        f"ID {o.ids[0]}: stopped at {state.device_position:g}°, holding",
+    )
 
 
 def release(ctx: typer.Context) -> None:
@@ -106,5 +153,5 @@ def register(app: typer.Typer) -> None:
     app.command(context_settings=NUMBERS_FIRST)(move)
     app.command(context_settings=NUMBERS_FIRST)(run)
     app.command()(release)
-    app.command(name="stop", help="Same as release: control off, the motor coasts to a stop.")(release)
+    app.command()(stop)
     app.command()(hold)

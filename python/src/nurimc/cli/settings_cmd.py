@@ -21,7 +21,8 @@ from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
 from ..journal import RestoreJournal, incomplete_message
 from ..motor import Motor
 from ..settings import SETTINGS, Setting, setting
-from .common import EXIT_DEVICE, Options, check_baud, emit, err, fail, note, one_id, open_bus, options, table
+from .common import EXIT_DEVICE, EXIT_OK, Options, check_baud, emit, err, fail, note, one_id, open_bus, options, table
+from .i18n import tr
 
 T = TypeVar("T")
 NAMES = ", ".join([*SETTINGS, "id", "baud"])
@@ -184,8 +185,13 @@ def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", h
     device_id = one_id(o)
     if not yes:
         if not sys.stdin.isatty():
-            fail("factory reset erases every setting; add --yes to confirm")
-        typer.confirm(f"Erase every setting of ID {device_id}? It will come back as ID 0 at 9600 bps", abort=True)
+            fail(
+                "factory reset erases every setting and needs confirming, but stdin is not a terminal to ask "
+                f"on; to confirm, run: nurimc ... --id {device_id} factory-reset --yes"
+            )
+        if not typer.confirm(tr(f"Erase every setting of ID {device_id}? It will come back as ID 0 at 9600 bps")):
+            err.print(tr("not reset: answered no (nothing was sent)"))
+            raise typer.Exit(EXIT_OK)
     with open_bus(o) as bus:
         bus.run(config.factory_reset(bus.core, device_id, confirm=True))
     emit(

@@ -48,6 +48,14 @@ def sim(
             + ". sm speaks the vendor C# table (sm-cs); sm-readme the README table."
         ),
     ] = "mc",
+    resolution: Annotated[
+        int | None,
+        typer.Option(
+            help="Encoder pulses per motor turn (MC; default 1024, 4 counts each: 0.088° steps) or hall "
+            "poles (BLMC-H; default 8). The document's factory value, 4, gives 22.5° steps. "
+            "A controller restored from --state keeps its own unless it holds the factory 4."
+        ),
+    ] = None,
     profile: Annotated[
         str | None,
         typer.Option(help="Product profiles file shaped like spec/profiles.json (factory gains, speed-0 rule)."),
@@ -103,6 +111,7 @@ def sim(
             eeprom_ms,
             speed_zero,
             profiles,
+            resolution,
         )
     except (OptionError, StateError, ValueError) as exc:
         typer.echo(f"nurimc sim: {exc}", err=True)
@@ -141,6 +150,7 @@ def build_bus(
     eeprom_ms: float = 50.0,
     speed_zero: str | None = None,
     profiles: dict[str, SimProfile] | None = None,
+    resolution: int | None = None,
 ) -> SimBus:
     if product not in PRODUCT_NAMES:
         raise OptionError(f"--product {product!r}: use one of {', '.join(PRODUCT_NAMES)}")
@@ -165,10 +175,30 @@ def build_bus(
             bus.add_controller(i, baud, product)
         for i, rate, own in motor_list:
             bus.add_controller(i, rate, own or product)
+        for controller in bus.controllers:
+            if controller.product in SIM_RESOLUTION:  # only MC and BLMC-H have a resolution setting
+                encoder_like(controller, controller.product, resolution)
     except BaseException:
         bus.close()
         raise
     return bus
+
+
+#: `nurimc sim`'s resolution when none is given: what a real motor reports (an encoder of 1024
+#: pulses on an MC, 8 hall poles on a BLMC-H), not the document's factory 4 (22.5° steps).
+SIM_RESOLUTION = {"mc": 1024, "blmc-h": 8}
+FACTORY_RESOLUTION = 4
+
+
+def encoder_like(controller: Any, product: str, resolution: int | None) -> None:
+    """Give a controller the --resolution (or the encoder-like default) unless it was restored
+    from --state with a resolution of its own (anything but the factory 4)."""
+    if resolution is not None and not 1 <= resolution <= 65533:
+        raise OptionError(f"--resolution {resolution}: use 1..65533 (encoder pulses or hall poles)")
+    if resolution is None and controller.settings.resolution != FACTORY_RESOLUTION:
+        return
+    controller.settings.resolution = resolution or SIM_RESOLUTION[product]
+    controller.apply_settings()
 
 
 def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, monitor: str | None = None) -> None:
