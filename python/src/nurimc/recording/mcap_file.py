@@ -18,7 +18,7 @@ from cyclonedds.idl import IdlStruct
 from mcap.writer import CompressionType, Writer
 
 from .. import __version__
-from ..protocol import StreamParser
+from ..protocol import StreamParser, build_frame
 from ..ros2 import msgs
 
 FRAMES_TOPIC = "/nurimc/frames"
@@ -70,8 +70,8 @@ class McapRecorder:
         self.write(topic, message, message.header.stamp.to_ns())
 
     # -- bus tracer: every frame sent and received --------------------------------------------
-    def record(self, direction: str, data: bytes) -> None:
-        t = time.time_ns()
+    def record(self, direction: str, data: bytes, log_time_ns: int | None = None) -> None:
+        t = time.time_ns() if log_time_ns is None else log_time_ns  # given when converting a log
         parser = self._parsers[direction]
         for frame in parser.feed(data):
             dropped = parser.stats.dropped_bytes - self._dropped[direction]
@@ -81,7 +81,8 @@ class McapRecorder:
                 direction=direction,
                 id=frame.id,
                 name=frame.name,
-                data=list(frame.encode()),
+                # the bytes as they were: encode() would refuse a frame with an out-of-range value
+                data=list(build_frame(frame.id, frame.SPEC.mode, frame.SPEC.layout.pack(*frame[1:]))),
                 dropped_before=dropped,
             )
             self.write(FRAMES_TOPIC, message, t)
