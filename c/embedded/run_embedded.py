@@ -169,9 +169,9 @@ def run_qemu(python: str, firmware: str, out: Path) -> None:
         done = subprocess.run(cmd, timeout=DEADLINE + 30, check=False, capture_output=True, text=True)
         relay.stop.set()
         relay.join(5)
-        sys.stdout.write(done.stdout)
+        sys.stdout.write(done.stdout + done.stderr)  # semihosting text
         if done.returncode != 0:
-            raise SystemExit(f"qemu: the firmware did not reach the target (exit {done.returncode}) {done.stderr}")
+            raise SystemExit(f"qemu: the firmware did not reach the target (exit {done.returncode})")
         summary = check_log(log)
         position = read_back(f"socket://{host}:{port}")
     finally:

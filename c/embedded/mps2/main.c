@@ -135,15 +135,17 @@ int main(void) {
     uint32_t start;
     long position = 0;
     int id = -1;
-    unsigned candidate;
+    unsigned candidate, round;
 
     board_init();
     nurimc_parser_init(&parser);
-    for (candidate = 0; candidate <= LAST_ID && id < 0; candidate++) {
-        if (request(NURIMC_MSG_REQUEST_PING, (uint8_t)candidate, &answer)) id = (int)candidate;
+    for (round = 0; round < 5 && id < 0; round++) { /* a busy or slow bus: look again */
+        for (candidate = 0; candidate <= LAST_ID && id < 0; candidate++) {
+            if (request(NURIMC_MSG_REQUEST_PING, (uint8_t)candidate, &answer)) id = (int)candidate;
+        }
     }
     if (id < 0) {
-        say("no controller at IDs 0..15\n");
+        say("no controller at IDs 0..15 (5 rounds)\n");
         finish(0);
     }
     say("found a controller at ID ");
