@@ -75,8 +75,9 @@ def test_replay_reads_a_session_file_and_the_decoder_outputs(
     uart = f"uart:rx=0:tx=1:baudrate={baud},nurimc" if two_lines else f"uart:rx=0:baudrate={baud},nurimc"
     sigrok("-i", str(session), "-P", uart, "-B", "nurimc=log", out=tmp_path / "decoded.log")
     sigrok("-i", str(session), "-P", uart, "-B", "nurimc=frames", out=tmp_path / "decoded.frames")
+    sigrok("-i", str(session), "-P", uart, "-B", "nurimc", out=tmp_path / "decoded.both")  # every class
     expected = [described(expected_frames(line)) for line in lines]
-    for path in (session, tmp_path / "decoded.log", tmp_path / "decoded.frames"):
+    for path in (session, tmp_path / "decoded.log", tmp_path / "decoded.frames", tmp_path / "decoded.both"):
         got = replay(path)
         if two_lines:  # two lines: each in its own order; replay sorts a session by time
             assert [g for g in got if g[0] == "tx"] == expected[0], path

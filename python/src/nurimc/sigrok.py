@@ -4,6 +4,7 @@
 Three kinds of file (told apart by their first bytes):
 - the nurimc sigrok decoder's `log` binary output (`sigrok-cli ... -B nurimc=log`): already a
   traffic log (JSON lines), read by the traffic-log reader; `read_capture` returns None for it;
+- both at once (`-B nurimc`: each frame's bytes, then its log line): the log lines are read;
 - its `frames` binary output (`-B nurimc=frames`, starting FF FE, ID, a size byte of a
   message: a UTF-16 text's FF FE mark is not taken for it): whole frames back to back, no times (each
   entry gets t = 0) and no direction (a request or command is "tx", an answer "rx");
@@ -28,6 +29,7 @@ from .protocol import BAUD_RATES, BY_MODE, StreamParser
 Entry = tuple[float, str, bytes]
 HOST_KINDS = ("command", "request")
 _MAX_SIZE = max(cls.SPEC.size for cls in BY_MODE.values())
+_LOG_LINE = re.compile(rb'\{"t": ([0-9.e+-]+), "dir": "(tx|rx)", "hex": "((?:[0-9a-f]{2})+)"\}\n')
 _UNITS = {"": 1, "k": 1_000, "m": 1_000_000, "g": 1_000_000_000}
 
 
@@ -41,7 +43,11 @@ def read_capture(path: str | Path, baud: int | None = None) -> list[Entry] | Non
     if head.startswith(b"PK\x03\x04"):
         return read_session(path, baud)
     if head.startswith(b"\xff\xfe") and len(head) == 4 and 2 <= head[3] <= _MAX_SIZE:  # not a UTF-16 mark
-        return read_frames(Path(path).read_bytes(), str(path))
+        data = Path(path).read_bytes()
+        lines = _LOG_LINE.findall(data)
+        if lines:  # `-B nurimc` without a class: each frame's bytes, then its log line
+            return [(float(t), way.decode(), bytes.fromhex(text.decode())) for t, way, text in lines]
+        return read_frames(data, str(path))
     return None
 
 
