@@ -6,7 +6,10 @@ real Arduino AVR core (Debian: arduino-core-avr, arduino-mk, gcc-avr) for an Uno
 
 OUTDIR gets the zip, a sketchbook with the zip installed into libraries/ (extracted: what "Add
 .ZIP Library" and `arduino-cli lib install --zip-path` do), each example's firmware
-(OUTDIR/<board>/<example>/<example>.elf) and sizes.json (flash and RAM of each build). --record
+(OUTDIR/<board>/<example>/<example>.elf) and sizes.json (flash and RAM of each build). Each
+example is built twice: with arduino-mk (the firmware the emulated runs use) and with
+arduino-builder, the Arduino IDE's build engine (library discovery as the IDE does it,
+-warnings all; its size report is recorded as ide_flash / ide_ram). --record
 also writes the sizes to FILE (benchmarks/results/arduino-sizes.json).
 
 Debian 12's core (1.8.7) uses DECIMAL_DIG in WString.cpp, which avr-gcc 5.4's <float.h> defines
@@ -33,6 +36,7 @@ BOARDS = {
     "uno": (["BOARD_TAG=uno"], 32256, 2048),
     "mega": (["BOARD_TAG=mega", "BOARD_SUB=atmega2560"], 253952, 8192),
 }
+FQBN = {"uno": "arduino:avr:uno", "mega": "arduino:avr:mega:cpu=atmega2560"}
 STACK_RESERVE = 256  # RAM left for the stack and the serial interrupt: a build that leaves less fails
 CXX_FLAGS = "-std=gnu++11 -fno-threadsafe-statics -flto -DDECIMAL_DIG=__DECIMAL_DIG__"
 
@@ -50,9 +54,11 @@ def install_zip(archive: Path, sketchbook: Path) -> Path:
         zf.extractall(libraries)
     lib = libraries / tops.pop()
     props = dict(line.split("=", 1) for line in (lib / "library.properties").read_text().splitlines() if "=" in line)
-    for key in ("name", "version", "author", "maintainer", "sentence", "paragraph", "category", "url", "architectures"):
+    for key in ("name", "version", "author", "maintainer", "sentence", "paragraph", "category", "architectures"):
         if not props.get(key):
             raise SystemExit(f"library.properties: {key} missing")
+    if "url" not in props:  # Arduino IDE 1.x refuses a library.properties without the key
+        raise SystemExit("library.properties: url missing")
     if not re.fullmatch(r"\d+\.\d+\.\d+", props["version"]):
         raise SystemExit(f"library.properties: version {props['version']} is not x.y.z")
     for example in (lib / "examples").iterdir():
@@ -85,6 +91,32 @@ def build(example: Path, board: str, libraries: Path, objdir: Path) -> dict[str,
     return {"flash": flash, "flash_max": flash_max, "ram": ram, "ram_max": ram_max}
 
 
+def build_like_the_ide(example: Path, board: str, libraries: Path, objdir: Path) -> dict[str, int]:
+    """The same example through arduino-builder, the Arduino IDE's own build engine: its library
+    discovery must accept the installed package, and at -warnings all nothing of ours may warn."""
+    objdir.mkdir(parents=True, exist_ok=True)
+    (objdir.parent.parent / "core-cache").mkdir(exist_ok=True)
+    cmd = [
+        "arduino-builder", "-compile", "-warnings", "all", "-hardware", str(ARDUINO / "hardware"),
+        "-tools", str(ARDUINO / "hardware" / "tools"), "-libraries", str(libraries), "-fqbn", FQBN[board],
+        "-build-path", str(objdir), "-build-cache", str(objdir.parent.parent / "core-cache"),
+        "-prefs=compiler.cpp.extra_flags=-DDECIMAL_DIG=__DECIMAL_DIG__",
+        str(example / f"{example.name}.ino"),
+    ]  # fmt: skip
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    output = done.stdout + done.stderr
+    ours = [
+        line for line in output.splitlines() if ("nurimc" in line and "warning" in line) or "nvalid library" in line
+    ]
+    flash = re.search(r"Sketch uses (\d+) bytes", output)
+    ram = re.search(r"Global variables use (\d+) bytes", output)
+    if done.returncode != 0 or ours or not flash or not ram:
+        raise SystemExit(
+            f"{example.name} for {board} with arduino-builder:\n" + "\n".join((ours or output.splitlines())[-20:])
+        )
+    return {"ide_flash": int(flash.group(1)), "ide_ram": int(ram.group(1))}
+
+
 def main(argv: list[str]) -> int:
     if not argv or (len(argv) == 3 and argv[1] != "--record") or len(argv) not in (1, 3):
         print(__doc__, file=sys.stderr)
@@ -97,6 +129,7 @@ def main(argv: list[str]) -> int:
     for board in BOARDS:
         for example in sorted((libraries / "nurimc" / "examples").iterdir()):
             sizes = build(example, board, libraries, out / board / example.name)
+            sizes |= build_like_the_ide(example, board, libraries, out / "ide" / board / example.name)
             results.setdefault(board, {})[example.name] = sizes
             print(f"{board:5s} {example.name:18s} flash {sizes['flash']:6d} / {sizes['flash_max']}  "
                   f"RAM {sizes['ram']:5d} / {sizes['ram_max']}")  # fmt: skip

@@ -71,7 +71,7 @@ def properties(meta: dict[str, object]) -> str:
             "NurimcBus sends commands and requests over a HardwareSerial port and an RS485 "
             "transceiver's direction pin, with answer deadlines computed from the wire.",
             "category=Device Control",
-            "url=https://github.com/nurimc/nurimc",
+            "url=",  # the IDE requires the key; there is no public project page to name yet
             "architectures=*",
             "includes=nurimc_arduino.h",
             "",
