@@ -33,9 +33,11 @@ ID, BAUD, TARGET, TOLERANCE = 3, 9600, 9000, 100
 DEADLINE = 60  # seconds of wall clock for the firmware; it needs about one here
 
 
-def start_simulator(python: str, endpoint: list[str]) -> tuple[subprocess.Popen[bytes], str]:
-    cmd = [python, "-m", "nurimc.sim", *endpoint, "--ids", str(ID), "--baud", str(BAUD), "--wire-timing"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, cwd=ROOT)
+def start_simulator(python: str, endpoint: list[str], log: Path) -> tuple[subprocess.Popen[bytes], str]:
+    """The simulator, its -v log (every frame it took or refused, and why) in `log`."""
+    cmd = [python, "-m", "nurimc.sim", *endpoint, "--ids", str(ID), "--baud", str(BAUD), "--wire-timing", "-v"]
+    with open(log, "wb") as errors:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=errors, cwd=ROOT)
     assert proc.stdout is not None
     sel = selectors.DefaultSelector()
     sel.register(proc.stdout.fileno(), selectors.EVENT_READ)
@@ -132,7 +134,7 @@ def run_avr(python: str, bridge: str, firmware: str, out: Path) -> None:
     log = out / "uno-traffic.log"
     with tempfile.TemporaryDirectory(prefix="nurimc-avr-") as tmp:
         link = os.path.join(tmp, "ttyBUS")
-        sim, _ = start_simulator(python, ["--link", link])
+        sim, _ = start_simulator(python, ["--link", link], out / "uno-simulator.log")
         try:
             cmd = [bridge, "-d", link, "-b", str(BAUD), "-t", str(DEADLINE), "-l", str(log), firmware]
             done = subprocess.run(cmd, timeout=DEADLINE + 30, check=False)
@@ -147,7 +149,7 @@ def run_avr(python: str, bridge: str, firmware: str, out: Path) -> None:
 
 def run_qemu(python: str, firmware: str, out: Path) -> None:
     log = out / "cortex-m-traffic.log"
-    sim, address = start_simulator(python, ["--tcp", "0"])
+    sim, address = start_simulator(python, ["--tcp", "0"], out / "cortex-m-simulator.log")
     try:
         host, port = address.rsplit(":", 1)
         relay = Relay((host, int(port)), log)
