@@ -117,9 +117,9 @@ class Decoder(srd.Decoder):
                 )
         elif ptype == "IDLE":
             self.idle[line] += 1
-            if self.idle[line] == self.options["quiet"] and self.held[line]:
+            if self.idle[line] == self.options["quiet"]:
                 self.resolve(line, True)  # the line went quiet: a partial frame will not complete
-                self.flush_garbage(line)
+                self.flush_garbage(line)  # and the garbage before the silence is shown now
 
     # --- the stream rule: where a whole valid frame starts, take it; else drop one byte -----------
     def resolve(self, line, final):
