@@ -5,6 +5,9 @@
                                                        UART0 on the simulator's pseudo-terminal
     run_embedded.py qemu FIRMWARE.elf OUTDIR           the Cortex-M example on QEMU's mps2-an385,
                                                        UART0 over TCP to the simulator
+    run_embedded.py avr-selftest BRIDGE FIRMWARE.elf   avr_selftest.c on simavr: every message type
+                                                       with the tables in AVR flash, its frames
+                                                       compared with the Python library's
 
 The simulator (`python -m nurimc.sim`, wire timing on) has one controller at ID 3, 9600 bps; the
 firmware must discover it among IDs 0..15, move it to 90 degrees and read it back. The bus
@@ -181,12 +184,60 @@ def run_qemu(python: str, firmware: str, out: Path) -> None:
     print(f"cortex-m (qemu mps2-an385): exit 0; {log}: {summary}; the simulator reads {position} degrees")
 
 
+def selftest_frames() -> list[bytes]:
+    """What avr_selftest.c sends: each type in table order, ID type % 200, field i of type t at
+    min + (7t + 13i) mod (max - min + 1), encoded by the Python library."""
+    sys.path.insert(0, str(ROOT / "python" / "src"))
+    from nurimc.protocol import MESSAGES
+
+    frames = []
+    for t, cls in enumerate(MESSAGES.values()):
+        values = [f.min + (7 * t + 13 * i) % (f.max - f.min + 1) for i, f in enumerate(cls.SPEC.fields)]
+        frames.append(cls(t % 200, *values).encode())
+    return frames
+
+
+def run_avr_selftest(bridge: str, firmware: str) -> None:
+    master, slave = os.openpty()
+    try:
+        done = subprocess.run([bridge, "-d", os.ttyname(slave), "-b", str(BAUD), "-t", "30", firmware],
+                              timeout=60, check=False)  # fmt: skip
+        os.set_blocking(master, False)
+        sent = b""
+        while True:
+            try:
+                chunk = os.read(master, 4096)
+            except BlockingIOError:
+                break
+            if not chunk:
+                break
+            sent += chunk
+    finally:
+        os.close(master)
+        os.close(slave)
+    expected = selftest_frames()
+    at = 0
+    for frame in expected:  # frame by frame, so a difference names its message
+        got = sent[at : at + len(frame)]
+        if got != frame:
+            raise SystemExit(f"avr self-test: {frame.hex(' ')} expected, the AVR sent {got.hex(' ') or 'nothing'}")
+        at += len(frame)
+    if at != len(sent):
+        raise SystemExit(f"avr self-test: {len(sent) - at} bytes more than the {len(expected)} frames")
+    if done.returncode != 0:
+        raise SystemExit(f"avr self-test: a check failed on the AVR (exit {done.returncode}, LED off)")
+    print(f"avr self-test (simavr, tables in flash): {len(expected)} message types encoded, decoded and parsed; "
+          "frames equal the Python library's")  # fmt: skip
+
+
 def main(argv: list[str]) -> int:
     python = os.environ.get("NURIMC_PYTHON", str(ROOT / ".venv" / "bin" / "python"))
     if len(argv) == 4 and argv[0] == "avr":
         out = Path(argv[3])
         out.mkdir(parents=True, exist_ok=True)
         run_avr(python, argv[1], argv[2], out)
+    elif len(argv) == 3 and argv[0] == "avr-selftest":
+        run_avr_selftest(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "qemu":
         out = Path(argv[2])
         out.mkdir(parents=True, exist_ok=True)

@@ -230,6 +230,7 @@ int main(int argc, char **argv) {
         int state = avr_run(avr);
         uint16_t sp = (uint16_t)(avr->data[SPL] | (avr->data[SPH] << 8));
         if (sp < lowest_sp && sp >= RAM_START) lowest_sp = sp;
+        if (state == cpu_Sleeping && !avr->sreg[S_I]) state = cpu_Done; /* nothing can wake it */
         if (state == cpu_Done || state == cpu_Crashed) {
             fprintf(stderr, "simavr_bridge: the firmware %s at %.3f s\n", state == cpu_Done ? "stopped" : "crashed",
                     avr_seconds());
