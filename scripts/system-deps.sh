@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install the Debian packages the tests need, once. Needs root (CI runs as root).
 set -euo pipefail
-want=(python3-venv clang gcc-arm-none-eabi libnewlib-arm-none-eabi chromium valgrind ninja-build cmake)
+want=(python3-venv clang gcc-arm-none-eabi libnewlib-arm-none-eabi chromium valgrind ninja-build cmake
+  gcc-avr avr-libc arduino-core-avr arduino-mk arduino-builder simavr libsimavr-dev qemu-system-arm sigrok-cli)
 missing=()
 for pkg in "${want[@]}"; do
   dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")

@@ -15,6 +15,27 @@
 
 #include "nurimc_messages.h"
 
+/*
+ * Where the generated tables live. An AVR (Arduino Uno, Mega) copies every const object into
+ * its RAM at start-up unless it is marked for program memory: the tables are 1.7 kB, most of an
+ * Uno's 2 kB. With NURIMC_TABLES_IN_FLASH (the Arduino package sets it on AVR, and marks its
+ * copy of the tables with NURIMC_FLASH) the library reads them with LPM instead; elsewhere these
+ * macros are plain reads and cost nothing. In that mode nurimc_spec() returns a copy in RAM
+ * whose `fields` still point into program memory (use nurimc_get_field/nurimc_set_field).
+ */
+#if defined(__AVR__) && defined(NURIMC_TABLES_IN_FLASH)
+#include <avr/pgmspace.h>
+#define NURIMC_FLASH             PROGMEM
+#define NURIMC_TABLE_U8(lvalue)  pgm_read_byte(&(lvalue))
+#define NURIMC_TABLE_U16(lvalue) pgm_read_word(&(lvalue))
+#define NURIMC_TABLE_PTR(lvalue) pgm_read_ptr(&(lvalue))
+#else
+#define NURIMC_FLASH
+#define NURIMC_TABLE_U8(lvalue)  (lvalue)
+#define NURIMC_TABLE_U16(lvalue) (lvalue)
+#define NURIMC_TABLE_PTR(lvalue) (lvalue)
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif

@@ -57,15 +57,15 @@ static uint8_t frame_checksum(const uint8_t *b, unsigned length) {
    whose checks all passed -> *out. Fields are in wire order, big-endian, at their offsets. */
 static void unpack(const uint8_t *frame, nurimc_message_type type, nurimc_message *out) {
     const nurimc_message_spec *spec = &nurimc_message_specs[type];
-    const nurimc_field_spec *f = spec->fields; /* NULL when there are none */
+    const nurimc_field_spec *f = (const nurimc_field_spec *)NURIMC_TABLE_PTR(spec->fields); /* NULL if none */
     const uint8_t *at = frame + DATA_OFFSET;
-    unsigned i, count = spec->field_count;
+    unsigned i, count = NURIMC_TABLE_U8(spec->field_count);
     memset(out, 0, sizeof *out);
     out->type = type;
     out->id = frame[ID_OFFSET];
     for (i = 0; i < count; i++, f++) {
-        unsigned char *to = (unsigned char *)out + f->offset; /* a uint8_t or uint16_t member */
-        if (f->width == 2) {
+        unsigned char *to = (unsigned char *)out + NURIMC_TABLE_U16(f->offset); /* a uint8_t or uint16_t member */
+        if (NURIMC_TABLE_U8(f->width) == 2) {
             *(uint16_t *)(void *)to = (uint16_t)((at[0] << 8) | at[1]);
             at += 2;
         } else {
@@ -85,12 +85,12 @@ static enum verdict judge(nurimc_parser_stats *stats, const uint8_t *b, size_t a
         return REJECT;
     }
     if (avail < 6) return WAIT;
-    plus_one = nurimc_type_by_mode_plus_one[b[MODE_OFFSET]];
+    plus_one = NURIMC_TABLE_U8(nurimc_type_by_mode_plus_one[b[MODE_OFFSET]]);
     if (plus_one == 0) {
         stats->unknown_mode++;
         return REJECT;
     }
-    if (nurimc_message_specs[plus_one - 1].size != size) {
+    if (NURIMC_TABLE_U8(nurimc_message_specs[plus_one - 1].size) != size) {
         stats->bad_size++;
         return REJECT;
     }
@@ -190,7 +190,7 @@ static NOINLINE int take(nurimc_parser *p, unsigned n, uint8_t byte, nurimc_mess
     p->length = 0;
     p->next = 0;
     p->stats.frames++;
-    unpack(p->buf, (nurimc_message_type)(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]] - 1), out);
+    unpack(p->buf, (nurimc_message_type)(NURIMC_TABLE_U8(nurimc_type_by_mode_plus_one[p->buf[MODE_OFFSET]]) - 1), out);
     return 1;
 }
 
@@ -204,11 +204,12 @@ int nurimc_parser_push_boundary_(nurimc_parser *parser, uint8_t byte, nurimc_mes
     if (n == p->next) {     /* state CANDIDATE (RESCAN holds two or more bytes, next 0): the byte to look at */
         if (n > MODE_OFFSET) return take(p, n, byte, out); /* the candidate's last byte */
         if (n == MODE_OFFSET) {
-            uint8_t plus_one = nurimc_type_by_mode_plus_one[byte];
+            uint8_t plus_one = NURIMC_TABLE_U8(nurimc_type_by_mode_plus_one[byte]);
             unsigned size = p->buf[SIZE_OFFSET];
             /* FE, the size byte (each mode has one size) and the mode together; the scan counts
                which check failed */
-            if (p->buf[1] != NURIMC_HEADER_1 || plus_one == 0 || nurimc_message_specs[plus_one - 1].size != size) {
+            if (p->buf[1] != NURIMC_HEADER_1 || plus_one == 0 ||
+                NURIMC_TABLE_U8(nurimc_message_specs[plus_one - 1].size) != size) {
                 return push_and_scan(p, byte, out);
             }
             if (size == 2) return take(p, n, byte, out); /* a frame without data ends with its mode byte */

@@ -86,13 +86,14 @@ nurimc_status nurimc_units_format(long wire, uint32_t scale_num, uint32_t scale_
 /* The scale of a field of the generated message table. */
 static const nurimc_field_spec *field(nurimc_message_type type, const char *name) {
     int index = nurimc_field_index(type, name);
-    return index < 0 ? NULL : &nurimc_message_specs[type].fields[index];
+    return index < 0 ? NULL : &((const nurimc_field_spec *)NURIMC_TABLE_PTR(nurimc_message_specs[type].fields))[index];
 }
 
 /* A physical limit in steps of `f` (the limits lie on the steps). */
 static long limit_steps(const nurimc_field_spec *f, double limit) {
     long steps = 0;
-    (void)nurimc_units_to_wire(limit, f->scale_num, f->scale_den, 0, 0xFFFF, &steps);
+    (void)nurimc_units_to_wire(limit, NURIMC_TABLE_U16(f->scale_num), NURIMC_TABLE_U16(f->scale_den), 0, 0xFFFF,
+                               &steps);
     return steps;
 }
 
@@ -102,8 +103,8 @@ static nurimc_status motion_to_wire(const nurimc_field_spec *f, double value, do
     long steps = 0;
     nurimc_status status;
     if (f == NULL || wire == NULL) return NURIMC_E_ARGUMENT;
-    status = nurimc_units_to_wire(value < 0 ? -value : value, f->scale_num, f->scale_den, limit_steps(f, low),
-                                  limit_steps(f, high), &steps);
+    status = nurimc_units_to_wire(value < 0 ? -value : value, NURIMC_TABLE_U16(f->scale_num),
+                                  NURIMC_TABLE_U16(f->scale_den), limit_steps(f, low), limit_steps(f, high), &steps);
     if (status != NURIMC_OK) return status;
     *wire = (uint16_t)steps;
     if (direction != NULL) *direction = value < 0 ? 1u : 0u;
@@ -111,7 +112,9 @@ static nurimc_status motion_to_wire(const nurimc_field_spec *f, double value, do
 }
 
 static double motion_from_wire(const nurimc_field_spec *f, uint16_t wire, uint8_t direction) {
-    double value = f == NULL ? 0.0 : nurimc_units_from_wire((long)wire, f->scale_num, f->scale_den);
+    double value =
+        f == NULL ? 0.0
+                  : nurimc_units_from_wire((long)wire, NURIMC_TABLE_U16(f->scale_num), NURIMC_TABLE_U16(f->scale_den));
     return direction != 0 ? -value : value;
 }
 
@@ -132,7 +135,8 @@ nurimc_status nurimc_seconds_to_wire(double seconds, uint16_t *arrival_time) {
     long steps = 0;
     nurimc_status status;
     if (f == NULL || arrival_time == NULL) return NURIMC_E_ARGUMENT;
-    status = nurimc_units_to_wire(seconds, f->scale_num, f->scale_den, limit_steps(f, NURIMC_LIMIT_ARRIVAL_S_MIN),
+    status = nurimc_units_to_wire(seconds, NURIMC_TABLE_U16(f->scale_num), NURIMC_TABLE_U16(f->scale_den),
+                                  limit_steps(f, NURIMC_LIMIT_ARRIVAL_S_MIN),
                                   limit_steps(f, NURIMC_LIMIT_ARRIVAL_S_MAX), &steps);
     if (status == NURIMC_OK) *arrival_time = (uint16_t)steps;
     return status;

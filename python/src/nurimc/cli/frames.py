@@ -166,17 +166,25 @@ def sniff(
     emit(o, {"frames": seen, "dropped_bytes": parser.stats.dropped_bytes})
 
 
-def replay(ctx: typer.Context, log: str = typer.Argument(..., help="A traffic log (Bus(log_path=...)).")) -> None:
-    """Decode a traffic log.
+def replay(
+    ctx: typer.Context,
+    log: str = typer.Argument(
+        ..., help="A traffic log (Bus(log_path=...)), a sigrok capture (.sr) or the nurimc sigrok decoder's output."
+    ),
+) -> None:
+    """Decode a traffic log, or a logic-analyzer capture (docs/sigrok.md).
 
     Example: nurimc replay traffic.log
     """
+    from ..sigrok import read_capture
+
     o = options(ctx)
     rows = table(log, "t (s)", "dir", "frame")
     entries: list[dict[str, Any]] = []
     parsers = {"tx": StreamParser(), "rx": StreamParser()}
     try:
-        lines = read_traffic_log(log)
+        capture = read_capture(log)  # None: not a capture, a traffic log
+        lines = read_traffic_log(log) if capture is None else capture
     except OSError as error:
         fail(f"{log}: {error.strerror or error}")
     for t, direction, data in lines:

@@ -37,6 +37,11 @@ def record(
         help=f"Seconds between points where the file is complete ({CHECKPOINT.allowed}); a crash loses at most that.",
         parser=CHECKPOINT,
     ),
+    source: Path = typer.Option(
+        None,
+        "--from",
+        help="Convert a traffic log or logic-analyzer capture (.sr, nurimc decoder output) instead of reading a bus.",
+    ),
 ) -> None:
     """Record joint_states (sensor_msgs/JointState) and every raw frame with its direction and time.
 
@@ -46,6 +51,12 @@ def record(
     from .ros2_cmd import motor_ids, need_extra, open_traced_bus, wait_for_signal
 
     need_extra()
+    if source is not None:  # docs/sigrok.md: a capture from a real robot, into Foxglove
+        from ..sigrok import convert_to_mcap
+
+        counts = convert_to_mcap(source, mcap_path)
+        out.print(f"wrote {mcap_path}: {counts} frames from {source}", soft_wrap=True)
+        return
     from ..group import read_states
     from ..recording.mcap_file import FRAMES_TOPIC, McapRecorder
     from ..ros2.bridge import Bridge

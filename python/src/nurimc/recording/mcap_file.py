@@ -110,8 +110,8 @@ class McapRecorder:
         self.write(topic, message, message.header.stamp.to_ns())
 
     # -- bus tracer: every frame sent and received --------------------------------------------
-    def record(self, direction: str, data: bytes) -> None:
-        t = time.time_ns()
+    def record(self, direction: str, data: bytes, log_time_ns: int | None = None) -> None:
+        t = time.time_ns() if log_time_ns is None else log_time_ns  # given when converting a log
         parser = self._parsers[direction]
         for frame in parser.feed(data):
             dropped = parser.stats.dropped_bytes - self._dropped[direction]
