@@ -224,6 +224,8 @@ def test_two_bridges_in_two_processes_one_subscriber(peer: Peer) -> None:
         (["ros2", "--ids", "1", "--rate", "-1"], "--rate: '-1' is out of range"),
         (["ros2", "--ids", "9"], "no answer from ID 9"),
         (["ros2", "--ids", "1", "--node-name", "2x"], "--node-name '2x'"),
+        (["ros2", "--ids", "1", "--control-commands-topic", ""], "--control-commands-topic '': give a topic name"),
+        (["ros2", "--ids", "1", "--control-states-topic", "a b"], "--control-states-topic 'a b': part 'a b'"),
         (["ros2", "--diff-drive", "1"], "--diff-drive 1: give two different IDs"),
         (["ros2", "--diff-drive", "1,2"], "--diff-drive needs --wheel-radius M and --wheel-separation M"),
         (["ros2", "--ids", "1", "--wheel-radius", "0.1"], "need --diff-drive LEFT_ID,RIGHT_ID"),
