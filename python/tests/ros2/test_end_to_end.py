@@ -287,3 +287,22 @@ def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
         assert turning is not None, states.samples[-1]
     finally:
         assert bridge.stop() == 0, "".join(bridge.stderr)
+
+
+def test_a_configuration_cyclone_refuses_is_one_line() -> None:
+    proc = subprocess.run(
+        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "--seconds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        env={
+            **os.environ,
+            "NO_COLOR": "1",
+            "COLUMNS": "300",
+            "CYCLONEDDS_URI": "<CycloneDDS><Domain><Bogus/></Domain></CycloneDDS>",
+        },
+    )
+    assert proc.returncode == 1
+    assert (
+        "Cyclone DDS refused its configuration: check CYCLONEDDS_URI" in proc.stderr and "Traceback" not in proc.stderr
+    )
