@@ -302,7 +302,7 @@ def test_a_configuration_cyclone_refuses_is_one_line() -> None:
             "CYCLONEDDS_URI": "<CycloneDDS><Domain><Bogus/></Domain></CycloneDDS>",
         },
     )
-    assert proc.returncode == 1
+    assert proc.returncode == 2  # a usage error: the configuration given
     assert (
         "Cyclone DDS refused its configuration: check CYCLONEDDS_URI" in proc.stderr and "Traceback" not in proc.stderr
     )
