@@ -230,3 +230,16 @@ def test_endpoints_carry_ros2_type_hashes() -> None:
         "builtin_interfaces/msg/Time",
         "std_msgs/msg/Header",
     ]
+
+
+def test_the_base_reports_itself_in_diagnostics() -> None:
+    b, drive = base()
+    drive.command(0.5, 0.0, now=0.0)
+    drive.tick(0.0)
+    drive.tick(0.1)
+    status = drive.status("nurimc/base")
+    values = {kv.key: kv.value for kv in status.values}
+    assert status.name == "nurimc/base: base" and status.message == "moving"
+    assert values["target_linear_m_s"] == "0.5000" and values["commanded_linear_m_s"] == "0.1000"
+    b.estop(True, now=0.2)
+    assert drive.status("p").message == "released by estop (latched)"

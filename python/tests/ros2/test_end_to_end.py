@@ -224,6 +224,8 @@ def test_two_bridges_in_two_processes_one_subscriber(peer: Peer) -> None:
         (["ros2", "--ids", "1", "--rate", "-1"], "--rate: '-1' is out of range"),
         (["ros2", "--ids", "9"], "no answer from ID 9"),
         (["ros2", "--ids", "1", "--node-name", "2x"], "--node-name '2x'"),
+        (["ros2", "--ids", "1", "--control-commands-topic", ""], "--control-commands-topic '': give a topic name"),
+        (["ros2", "--ids", "1", "--control-states-topic", "a b"], "--control-states-topic 'a b': part 'a b'"),
         (["ros2", "--diff-drive", "1"], "--diff-drive 1: give two different IDs"),
         (["ros2", "--diff-drive", "1,2"], "--diff-drive needs --wheel-radius M and --wheel-separation M"),
         (["ros2", "--ids", "1", "--wheel-radius", "0.1"], "need --diff-drive LEFT_ID,RIGHT_ID"),
@@ -285,3 +287,22 @@ def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
         assert turning is not None, states.samples[-1]
     finally:
         assert bridge.stop() == 0, "".join(bridge.stderr)
+
+
+def test_a_configuration_cyclone_refuses_is_one_line() -> None:
+    proc = subprocess.run(
+        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "--seconds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        env={
+            **os.environ,
+            "NO_COLOR": "1",
+            "COLUMNS": "300",
+            "CYCLONEDDS_URI": "<CycloneDDS><Domain><Bogus/></Domain></CycloneDDS>",
+        },
+    )
+    assert proc.returncode == 2  # a usage error: the configuration given
+    assert (
+        "Cyclone DDS refused its configuration: check CYCLONEDDS_URI" in proc.stderr and "Traceback" not in proc.stderr
+    )

@@ -155,5 +155,7 @@ def test_mobile_base_drives_a_square_with_a_real_ros2_node(release: str) -> None
     # the command timeout stopped the base by decelerating: speeds fall through intermediate values
     assert seen["timeout_stop_seconds"] < 2.5, seen
     assert any(0.05 < s < 0.45 for s in seen["timeout_speeds"]), seen["timeout_speeds"]
+    # /diagnostics has the base's status, with the command timeout counted
+    assert int(seen["base_status"]["command_timeouts"]) >= 1, seen["base_status"]
     # /tf carries odom -> base_link
     assert tf and tf[-1].transforms[0].header.frame_id == "odom" and tf[-1].transforms[0].child_frame_id == "base_link"

@@ -180,7 +180,7 @@ def ros2(
     from ..ros2.bridge import Bridge
     from ..ros2.dds import Participant, domain_id
     from ..ros2.graph import node_name as check_node_name
-    from ..ros2.names import NameError_, topic
+    from ..ros2.names import NameError_, topic, topic_option
     from ..ros2.names import joint_names as make_joint_names
     from ..ros2.names import namespace as check_namespace
     from ..ros2.node import BridgeNode
@@ -189,6 +189,8 @@ def ros2(
         ns = check_namespace(namespace)
         domain = domain_id()
         check_node_name(node_name)
+        control_commands = topic_option("--control-commands-topic", control_commands, ns)
+        control_states = topic_option("--control-states-topic", control_states, ns)
         base_ids = _base_ids(diff_drive, wheel_radius, wheel_separation)
         if base_ids and not ids and not o.ids:
             ids = ",".join(map(str, base_ids))
@@ -223,7 +225,7 @@ def ros2(
         except ValueError as error:
             fail(str(error))
         node = BridgeNode(bus, bridge, participant, ns, rate, o.product, broadcast_read, recorder, node_name=node_name)
-        control_topics.attach(node, topic(ns, control_commands), topic(ns, control_states))
+        control_topics.attach(node, control_commands, control_states)
         if base is not None:
             diffdrive.attach(node, base, stamped)
         node.prepare()
@@ -231,7 +233,7 @@ def ros2(
         out.print(
             f"ready: domain {domain}, node {topic(ns, node_name)}, {node.joint_states_topic} ({joints}); commands on "
             f"{'' if ns == '/' else ns}/position_commands, velocity_commands, estop; /diagnostics; "
-            f"ros2_control: {topic(ns, control_commands)} -> {topic(ns, control_states)}"
+            f"ros2_control: {control_commands} -> {control_states}"
             + (f"; base: {topic(ns, 'cmd_vel')} -> {topic(ns, 'odom')}, /tf" if base is not None else ""),
             soft_wrap=True,
         )

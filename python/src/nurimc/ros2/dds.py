@@ -88,8 +88,8 @@ class Participant:
         except DDSException as error:
             if error.code != DDSException.DDS_RETCODE_PRECONDITION_NOT_MET:
                 raise ValueError(
-                    f"Cyclone DDS refused its configuration (CYCLONEDDS_URI and {FAST_DDS_NAME_MATCHING}): {error}; "
-                    "check CYCLONEDDS_URI (cyclonedds >= 11.0.1 is needed)"
+                    "Cyclone DDS refused its configuration: check CYCLONEDDS_URI (Cyclone's own line above says "
+                    "what it did not take; the bridge adds Compatibility/IgnoreTypeInformation, cyclonedds >= 11.0.1)"
                 ) from None
             self._domain = None  # this process already has the domain (e.g. a test's own participant)
         self.participant = DomainParticipant(self.domain, qos=Qos(Policy.Userdata(ENCLAVE_USER_DATA)))

@@ -39,7 +39,7 @@ from .base_msgs import (
 )
 from .bridge import MAX_RPM, MIN_RPM, RESEND_SAME, Action, Bridge, Hold, Joint, Refused, Run
 from .convert import deg_to_rad, rad_s_to_rpm, rpm_to_rad_s
-from .msgs import Header, Time
+from .msgs import DIAGNOSTIC_OK, DIAGNOSTIC_WARN, DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time
 from .names import topic
 
 NOT_MEASURED = 1e6  # variance of what a planar base does not measure (z, roll, pitch)
@@ -218,6 +218,29 @@ class DiffDrive:
         self.angular = (v_right - v_left) / c.wheel_separation
         return True
 
+    def status(self, prefix: str) -> DiagnosticStatus:
+        """The base's /diagnostics entry: what it is told, what it does, where it thinks it is."""
+        values = {
+            "target_linear_m_s": self.target[0],
+            "target_angular_rad_s": self.target[1],
+            "commanded_linear_m_s": self.current[0],
+            "commanded_angular_rad_s": self.current[1],
+            "measured_linear_m_s": self.linear,
+            "measured_angular_rad_s": self.angular,
+            "x_m": self.x,
+            "y_m": self.y,
+            "yaw_rad": self.yaw,
+            "command_timeouts": self.timeouts,
+        }
+        moving = "moving" if self.moving else "standing (held)" if self.left.mode == "held" else "standing"
+        return DiagnosticStatus(
+            level=DIAGNOSTIC_WARN if self.bridge.estop_latched else DIAGNOSTIC_OK,
+            name=f"{prefix}: base",
+            message="released by estop (latched)" if self.bridge.estop_latched else moving,
+            hardware_id=f"IDs {self.config.left_id} (left), {self.config.right_id} (right)",
+            values=[KeyValue(k, f"{v:.4f}" if isinstance(v, float) else str(v)) for k, v in values.items()],
+        )
+
     def odometry(self, stamp_ns: int) -> tuple[Odometry, TFMessage]:
         c = self.config
         header = Header(stamp=Time.from_ns(stamp_ns), frame_id=c.odom_frame)
@@ -244,6 +267,8 @@ def attach(node: Any, config: BaseConfig, stamped: bool = False) -> DiffDrive:
     participant = node.participant
     odom_writer = participant.writer(topic(node.namespace, "odom"), Odometry)
     tf_writer = participant.writer("/tf", TFMessage)
+    diagnostics_writer = participant.writer("/diagnostics", DiagnosticArray)
+    next_status = [0.0]
     command_type = TwistStamped if stamped else Twist
 
     def on_data(reader: Any) -> None:
@@ -260,6 +285,10 @@ def attach(node: Any, config: BaseConfig, stamped: bool = False) -> DiffDrive:
             odom, tf = base.odometry(time.time_ns())
             odom_writer.write(odom)
             tf_writer.write(tf)
+        if now >= next_status[0]:  # 1 Hz, beside the bridge's own statuses
+            next_status[0] = now + 1.0
+            stamp = Header(stamp=Time.from_ns(time.time_ns()))
+            diagnostics_writer.write(DiagnosticArray(header=stamp, status=[base.status(node.prefix)]))
         return base.tick(now)
 
     node.after_read.append(after_read)

@@ -43,6 +43,19 @@ def topic(ns: str, name: str) -> str:
     return f"/{name}" if ns == "/" else f"{ns}/{name}"
 
 
+def topic_option(option: str, text: str, ns: str) -> str:
+    """A topic name given on the command line (relative: under the namespace), checked as ROS 2 does."""
+    if not text or text.endswith("/"):
+        raise NameError_(f"{option} {text!r}: give a topic name such as robot_joint_commands or /robot_joint_commands")
+    full = topic(ns, text)
+    for token in full[1:].split("/"):
+        if not _TOKEN.match(token):
+            raise NameError_(
+                f"{option} {text!r}: part {token!r} must be letters, digits and '_' and not start with a digit"
+            )
+    return full
+
+
 def dds_topic(ros_name: str) -> str:
     """ "/ns/joint_states" -> "rt/ns/joint_states" (how ROS 2 names the DDS topic)."""
     if not ros_name.startswith("/"):

@@ -149,6 +149,8 @@ def base(probe: Probe) -> dict:
     cmd_vel = node.create_publisher(Twist, f"{ns}/cmd_vel", 10)
     odoms: list[Odometry] = []
     node.create_subscription(Odometry, f"{ns}/odom", odoms.append, 10)
+    diagnostics: list[DiagnosticArray] = []
+    node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 10)
     probe.spin(15, until=lambda: len(probe.states) > 0 and len(odoms) > 0)
     probe.spin(3, until=lambda: any(n == "nurimc" for n, _ in probe.node.get_node_names_and_namespaces()))
     out["graph"] = probe.graph()
@@ -201,6 +203,8 @@ def base(probe: Probe) -> dict:
     out["timeout_stop_seconds"] = time.monotonic() - stopped_at
     speeds = [abs(o.twist.twist.linear.x) for o in odoms[-40:]]
     out["timeout_speeds"] = speeds
+    base_statuses = [st for d in diagnostics for st in d.status if st.name == f"nurimc{ns}: base"]
+    out["base_status"] = {kv.key: kv.value for kv in base_statuses[-1].values} if base_statuses else {}
     return out
 
 
