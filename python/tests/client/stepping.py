@@ -10,7 +10,19 @@ from __future__ import annotations
 
 from typing import Any, Generic, TypeVar
 
-from nurimc.client.actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
+from nurimc.client.actions import (
+    Action,
+    Discard,
+    Note,
+    Now,
+    Procedure,
+    Receive,
+    Send,
+    Sent,
+    SetHostBaud,
+    Wait,
+    WaitUntil,
+)
 
 T = TypeVar("T")
 

@@ -23,13 +23,13 @@ from nurimc.protocol import (
     RequestFirmware,
     RequestPing,
     RequestPosition,
+    SetBaud,
     SetControl,
     SetId,
     baud_index,
     build_frame,
     decode,
 )
-from nurimc.protocol import SetBaud
 
 from .stepping import Stepper
 
