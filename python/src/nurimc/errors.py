@@ -1,8 +1,14 @@
-"""Errors of the bus client. Each message says what went wrong and what to do next."""
+"""Errors of nurimc. Each message says what went wrong and what to do next.
+
+One root: every error nurimc raises on purpose is a `NurimcError` (defined in
+nurimc.protocol.errors so that the protocol package stands alone, and re-exported here);
+`ProtocolError` (bytes and wire values) and `InputError` (a value from a person, file or the
+network; also a ValueError) are its two branches a caller may want apart (docs/library.md, Errors).
+"""
 
 from __future__ import annotations
 
-from .protocol.errors import FieldRangeError, ProtocolError
+from .protocol.errors import FieldRangeError, NurimcError, ProtocolError
 
 __all__ = [
     "CallTimeout",
@@ -23,10 +29,6 @@ __all__ = [
     "UnexpectedAnswer",
     "UnconfirmedRead",
 ]
-
-
-class NurimcError(Exception):
-    """Base class of every error of the bus client."""
 
 
 class InputError(NurimcError, ValueError):

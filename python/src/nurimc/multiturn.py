@@ -9,7 +9,9 @@ wrap (327.68 deg) between two readings — at 100 RPM, poll at least every 0.5 s
 
 from __future__ import annotations
 
-WRAP_DEGREES = 655.36
+from .protocol.host import LIMITS
+
+WRAP_DEGREES = LIMITS["position_wrap_deg"]  # the device's position wraps here (spec/host.json)
 
 
 def signed_degrees(direction: int, magnitude_deg: float) -> float:

@@ -89,29 +89,10 @@ class Setting:
         return f"{low}..{high}{' ' + self.unit if self.unit else ''}"
 
 
-def _gains(prefix: str, answer: str, command: str) -> list[Setting]:
-    return [
-        Setting(f"{prefix}-kp", answer, "kp", command, f"{prefix} controller proportional gain"),
-        Setting(f"{prefix}-ki", answer, "ki", command, f"{prefix} controller integral gain"),
-        Setting(f"{prefix}-kd", answer, "kd", command, f"{prefix} controller derivative gain"),
-        Setting(f"{prefix}-rated-current", answer, "rated_current", command, f"{prefix} controller current limit (A)"),
-    ]
-
-
+#: Every setting, in the spec's order, from the generated spec (spec/settings.json): names,
+#: the command that writes each, the answer and field that read it, and what it is.
 SETTINGS: dict[str, Setting] = {
-    s.name: s
-    for s in [
-        *_gains("position", "position_gains", "set_position_gains"),
-        *_gains("speed", "speed_gains", "set_speed_gains"),
-        Setting("response-time", "response_time", "response_time", "set_response_time", "delay before answering (µs)"),
-        Setting("rated-speed", "rated_speed", "rated_speed", "set_rated_speed", "motor rated speed (RPM)"),
-        Setting("resolution", "resolution", "resolution", "set_resolution", "encoder pulses (MC) or poles (BLMC-H)"),
-        Setting("ratio", "ratio", "ratio", "set_ratio", "reduction ratio n:1"),
-        Setting("control", "control", "control", "set_control", "on (motor held) or off (released)"),
-        Setting("position-mode", "position_mode", "position_mode", "set_position_mode", "absolute or relative"),
-        Setting("direction", "direction", "direction", "set_direction", "control direction ccw or cw"),
-        Setting("firmware", "firmware", "version", None, "firmware version (read-only)"),
-    ]
+    s["name"]: Setting(s["name"], s["answer"], s["field"], s["command"], s["doc"]) for s in _SPEC_SETTINGS
 }
 
 

@@ -22,8 +22,7 @@ import typer.main
 
 from .. import __version__
 from ..errors import NurimcError
-from ..protocol import PRODUCTS, ProtocolError
-from ..sim.store import StateError
+from ..protocol import PRODUCTS
 from .common import (
     CLICK_ERROR,
     EXIT_DEVICE,
@@ -160,6 +159,39 @@ def _os_error_text(error: OSError) -> str:
     return str(error.strerror or error)
 
 
+def _report(error: Exception, verbose: bool) -> int:
+    """Say what failed in one line; the exit code (docs/cli.md, Exit codes and errors).
+
+    Errors of nurimc share one root, NurimcError, whose ValueError branch (InputError,
+    ProtocolError: what was given) is a usage error and the rest a device error; a click
+    error is about the command line; an OSError is the system's."""
+    if isinstance(error, typer.Abort):
+        say_error("aborted")
+        return EXIT_DEVICE
+    if isinstance(error, CLICK_ERROR):
+        say_error(_usage_line(error))
+        return EXIT_DEVICE if getattr(error, "exit_code", EXIT_USAGE) == EXIT_DEVICE else EXIT_USAGE
+    if isinstance(error, NurimcError):
+        say_error(error)
+        return EXIT_USAGE if isinstance(error, ValueError) else EXIT_DEVICE
+    if isinstance(error, BrokenPipeError):  # the reader went away (`nurimc status | head -1`): nothing left to tell
+        sys.stdout = None  # nothing more is written to the closed pipe
+        return EXIT_DEVICE
+    if isinstance(error, OSError):
+        say_error(_os_error_text(error))
+        return EXIT_DEVICE
+    if isinstance(error, RecursionError):
+        say_error("input nested too deeply")
+        return EXIT_USAGE
+    if isinstance(error, ValueError):  # a library we call refused a value we passed on
+        say_error(error)
+        return EXIT_USAGE
+    say_error(f"unexpected {type(error).__name__}: {error} (this is a bug; run with -v for the traceback)")
+    if verbose:
+        traceback.print_exception(error)
+    return EXIT_DEVICE
+
+
 #: Global flags (no value) that may also follow the command: `nurimc --id 1 status --json`.
 TRAILING_FLAGS = frozenset({"--json", "-v", "--verbose"})
 
@@ -204,12 +236,6 @@ def main(args: list[str] | None = None) -> None:
     try:
         result = _command().main(args=args, prog_name="nurimc", standalone_mode=False)
         code = result if isinstance(result, int) else EXIT_OK
-    except typer.Abort:
-        say_error("aborted")
-        code = EXIT_DEVICE
-    except CLICK_ERROR as error:
-        say_error(_usage_line(error))
-        code = EXIT_DEVICE if getattr(error, "exit_code", EXIT_USAGE) == EXIT_DEVICE else EXIT_USAGE
     except Terminated:
         if _invoked[0] in LONG_RUNNING:
             code = EXIT_OK
@@ -219,26 +245,8 @@ def main(args: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         err.print(tr("interrupted"))
         code = 130
-    except NurimcError as error:
-        say_error(error)
-        code = EXIT_USAGE if isinstance(error, ValueError) else EXIT_DEVICE
-    except (ProtocolError, StateError, ValueError, KeyError) as error:
-        say_error(error.args[0] if isinstance(error, KeyError) and error.args else error)
-        code = EXIT_USAGE
-    except BrokenPipeError:
-        code = EXIT_DEVICE  # the reader went away (`nurimc status | head -1`): nothing left to tell
-        sys.stdout = None  # nothing more is written to the closed pipe
-    except OSError as error:
-        say_error(_os_error_text(error))
-        code = EXIT_DEVICE
-    except RecursionError:
-        say_error("input nested too deeply")
-        code = EXIT_USAGE
     except Exception as error:
-        say_error(f"unexpected {type(error).__name__}: {error} (this is a bug; run with -v for the traceback)")
-        code = EXIT_DEVICE
-        if verbose:
-            traceback.print_exc()
+        code = _report(error, verbose)
     finally:
         language.__exit__(None, None, None)
         with contextlib.suppress(OSError, AttributeError):

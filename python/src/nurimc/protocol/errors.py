@@ -3,8 +3,15 @@
 from __future__ import annotations
 
 
-class ProtocolError(ValueError):
-    """Base class of every error raised by nurimc.protocol."""
+class NurimcError(Exception):
+    """The root of every error nurimc raises on purpose (re-exported as nurimc.NurimcError).
+
+    It lives here, in the protocol package, because that package imports nothing else of
+    nurimc (nor any third-party package) and every other layer imports it."""
+
+
+class ProtocolError(NurimcError, ValueError):
+    """Base class of every error raised by nurimc.protocol (bad bytes, a value the wire cannot carry)."""
 
 
 class EncodeError(ProtocolError):

@@ -21,11 +21,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from ..motor import POSITION_LIMIT, MotorState
+from ..protocol.host import LIMITS
 from . import msgs
 from .convert import deg_to_rad, rad_s_to_rpm, rad_to_deg, rpm_to_rad_s
 
-MIN_RPM = 0.1  # the wire's speed unit: below it a velocity command is a stop
-MAX_RPM = 6553.3
+MIN_RPM = LIMITS["speed_rpm_min"]  # the wire's speed unit: below it a velocity command is a stop
+MAX_RPM = LIMITS["speed_rpm_max"]
 DEFAULT_COMMAND_TIMEOUT = 0.5  # s
 DEFAULT_MOVE_VELOCITY = 2 * math.pi  # rad/s (60 RPM): speed of position moves
 DEFAULT_RAMP = 0.1  # s to reach a commanded velocity (the wire's smallest ramp)

@@ -7,7 +7,7 @@ from ..inputs import id_list
 from ..protocol import BAUD_RATES, PRODUCTS
 
 
-class OptionError(ValueError):
+class OptionError(InputError):
     """A command-line or URL option is malformed; the message says how to write it."""
 
 

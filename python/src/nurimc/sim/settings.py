@@ -8,31 +8,24 @@ from typing import Any
 
 from ..protocol import BAUD_RATES, DEVICE_DEFAULTS, PRODUCTS, Message
 from ..protocol import messages as m
+from ..protocol._settings import SETTINGS as SPEC_SETTINGS
 from ..protocol.host import PROFILES
 from ..protocol.schema import FieldSpec, MessageSpec
 
 PRODUCT_NAMES = tuple(PRODUCTS)
 ADDRESS_FIELDS = frozenset({"id", "baud_index"})
 
-# Each setting's range is that of the field of the command that writes it.
+# Each setting's range is that of the field of the command that writes it: the ID and the rate
+# (addresses, not in the settings map), then every writable setting of the generated spec
+# (spec/settings.json), by its stored name (`speed-kp` is stored as speed_kp).
 _WRITERS: dict[str, tuple[type[Message], str]] = {
     "id": (m.SetId, "new_id"),
     "baud_index": (m.SetBaud, "baud_index"),
-    "response_time": (m.SetResponseTime, "response_time"),
-    "rated_speed": (m.SetRatedSpeed, "rated_speed"),
-    "resolution": (m.SetResolution, "resolution"),
-    "ratio": (m.SetRatio, "ratio"),
-    "control": (m.SetControl, "control"),
-    "position_mode": (m.SetPositionMode, "position_mode"),
-    "direction": (m.SetDirection, "direction"),
-    "position_kp": (m.SetPositionGains, "kp"),
-    "position_ki": (m.SetPositionGains, "ki"),
-    "position_kd": (m.SetPositionGains, "kd"),
-    "position_rated_current": (m.SetPositionGains, "rated_current"),
-    "speed_kp": (m.SetSpeedGains, "kp"),
-    "speed_ki": (m.SetSpeedGains, "ki"),
-    "speed_kd": (m.SetSpeedGains, "kd"),
-    "speed_rated_current": (m.SetSpeedGains, "rated_current"),
+    **{
+        s["name"].replace("-", "_"): (m.MESSAGES[s["command"]], s["field"])
+        for s in SPEC_SETTINGS
+        if s["command"] is not None
+    },
 }
 
 

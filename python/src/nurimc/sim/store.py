@@ -20,6 +20,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from ..errors import InputError
 from ..protocol import PRODUCTS
 from .settings import stored_problem
 
@@ -29,7 +30,7 @@ TMP_PREFIX, TMP_SUFFIX = ".bus-", ".tmp"
 FORMAT_VERSION = 1
 
 
-class StateError(Exception):
+class StateError(InputError):
     """The state directory or file cannot be used."""
 
 

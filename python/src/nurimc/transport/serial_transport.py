@@ -13,7 +13,7 @@ from typing import Any, Literal, overload
 
 import serial
 
-from ..errors import PortError, RateRefused
+from ..errors import NurimcError, PortError, RateRefused
 from .backends import find_backend, known_schemes, scheme_of
 from .base import Transport
 from .latency import estimate_latency
@@ -187,6 +187,8 @@ def open_transport(
             if scheme is None:
                 options["exclusive"] = True  # two programs on one bus would garble each other
             port = serial.serial_for_url(url, **options)
+    except NurimcError:
+        raise  # already says what is wrong (e.g. a sim:// state directory that cannot be used)
     except (serial.SerialException, OSError, ValueError) as err:
         if "protocol" in str(err) and "not known" in str(err):
             raise PortError(f"{url}: unknown port scheme {scheme}://; known: {', '.join(known_schemes())}") from err

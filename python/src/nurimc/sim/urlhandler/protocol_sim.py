@@ -19,6 +19,7 @@ from ..faults import FaultConfig
 from ..options import OptionError, check_baud, parse_bool, parse_ids, parse_motor
 from ..port import SimSerial
 from ..profile import SPEED_ZERO_CHOICES
+from ..store import StateError
 
 _FLOAT_FAULTS = (
     "drop_rate",
@@ -111,6 +112,8 @@ class Serial(SimSerial):
         if self.bus is None:
             try:
                 self.bus = bus_from_url(str(self.port))
+            except StateError:
+                raise  # a state directory that cannot be used: says so itself (a usage error)
             except ValueError as exc:
                 raise serial.SerialException(str(exc)) from exc
             self._own_bus = True
