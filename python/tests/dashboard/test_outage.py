@@ -134,7 +134,7 @@ def test_the_scheduler_serves_pages_in_turn_and_the_stop_first() -> None:
 
     flooder, other = object(), object()
     for _ in range(60):
-        jobs.submit(c.Hold(1), done("flood"), owner=flooder)
+        jobs.submit(c.HoldMotor(1), done("flood"), owner=flooder)
     assert jobs.pending(flooder) == 50  # bounded: the rest were refused at once
     assert sum("busy" in (e or "") for _, _, e in answers) == 10
     jobs.submit(c.ReadSettings(2), done("other"), owner=other)

@@ -14,7 +14,6 @@ other command goes out. Nothing asked during the outage is replayed.
 
 from __future__ import annotations
 
-import contextlib
 import threading
 import time
 from collections.abc import Callable
@@ -26,10 +25,10 @@ from ..client.sync import Bus
 from ..discovery import Found, Progress, discover
 from ..errors import ControllerBusy, NurimcError, PortError, PortLost
 from ..motor import Motor, MotorState
-from ..protocol import BROADCAST_ID, FieldRangeError, ResetPosition, SetControl
-from ..protocol.host import PROFILES
+from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
+from .procedures import Reading, emergency_stop, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
 
@@ -38,6 +37,7 @@ ESTOP_VERIFY_SECONDS = 2.0  # the controllers answer again once their EEPROM wri
 ERROR_REPEAT = 1.0  # s between two reports of the same motor's read failure
 DOWN_RECHECK = 1.0  # s: while the port is down the thread sleeps this long between looks (no busy loop)
 STOP_PENDING = "stop pending: port lost"
+BUSY_MARGIN = 0.2  # s after a controller's busy window during which a failed reading is still "busy"
 REOPEN_WAIT = 3.0  # s a reopen asked from the page waits for the port before answering
 
 __all__ = ["CANCELLED", "MAX_PENDING", "BusWorker", "Done", "KnownMotor"]
@@ -78,8 +78,7 @@ class BusWorker:
         self._samples: list[list[float]] = []
         self._samples_lock = threading.Lock()
         self._last_error: dict[int, float] = {}
-        self._busy_until: dict[int, tuple[float, str]] = {}  # motor -> (end of its EEPROM busy window, why)
-        self.busy_window = PROFILES[product].busy_window if product in PROFILES else 0.3
+        self._busy_why: dict[int, str] = {}  # motor -> what last wrote its EEPROM (the window itself is BusCore's)
         self.clock_origin = time.monotonic()
         self.reads = 0
         #: an emergency stop asked while the port was lost, not yet carried out and read back
@@ -253,8 +252,8 @@ class BusWorker:
                 return
             except NurimcError as error:
                 now = time.monotonic()
-                busy_until, why = self._busy_until.get(device_id, (0.0, ""))
-                if now < busy_until or isinstance(error, ControllerBusy):
+                why = self._busy_why.get(device_id, "")
+                if now < self.bus.core.busy_until(device_id) + BUSY_MARGIN or isinstance(error, ControllerBusy):
                     text = f"ID {device_id} is busy writing its settings{why}; readings resume in a moment"
                     kind = "busy"
                 else:
@@ -266,25 +265,33 @@ class BusWorker:
     def _sample(self, device_id: int) -> MotorState:
         """Read one motor's state and queue it for the plots."""
         state = self.motor(device_id).read_state()
+        self._plot(state)
+        return state
+
+    def _plot(self, state: MotorState) -> None:
+        device_id = state.id
         self.reads += 1
         t = round(time.monotonic() - self.clock_origin, 4)
         row = [device_id, t, state.position, state.speed, state.current, state.device_position]
         with self._samples_lock:
             self._samples.append(row)
-        return state
 
     def motor(self, device_id: int) -> Motor:
         """The motor's handle, with the bus switched to its rate."""
         known = self.motors.get(device_id)
         if known is not None and known.baudrate != self.bus.baudrate:
             self.bus.baudrate = known.baudrate
+        return self._handle(device_id)
+
+    def _handle(self, device_id: int) -> Motor:
         if device_id not in self._handles:
             self._handles[device_id] = self.bus.motor(device_id, self.product)
         return self._handles[device_id]
 
     def _wrote_eeprom(self, device_id: int, why: str) -> None:
-        """The controller may not answer for a while: say so instead of blaming the wiring."""
-        self._busy_until[device_id] = (time.monotonic() + self.busy_window + 0.2, why)
+        """What is about to write this controller's EEPROM: while the BusCore's busy window for it
+        lasts, a reading that fails says so instead of blaming the wiring."""
+        self._busy_why[device_id] = why
 
     def _check_estop(self) -> None:
         if self.jobs.stop_requested.is_set():
@@ -303,7 +310,7 @@ class BusWorker:
                 self._wrote_eeprom(device_id, " (control on)")
                 (motor.move_by if relative else motor.move_to)(degrees, rpm=rpm, seconds=seconds)
                 return {"id": device_id}
-            case c.Run(device_id, rpm, ramp):
+            case c.RunMotor(device_id, rpm, ramp):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).run(rpm, ramp)
                 return {"id": device_id}
@@ -311,7 +318,7 @@ class BusWorker:
                 self._wrote_eeprom(device_id, " after the release")
                 self.motor(device_id).release()
                 return {"id": device_id, "control": "off"}
-            case c.Hold(device_id):
+            case c.HoldMotor(device_id):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).hold()
                 return {"id": device_id}
@@ -333,7 +340,7 @@ class BusWorker:
                 return self._change_id(device_id, new_id)
             case c.ChangeBaud(device_id, rate):
                 return self._change_baud(device_id, rate)
-            case c.FactoryReset(device_id):
+            case c.FactoryResetMotor(device_id):
                 return self._factory_reset(device_id)
             case c.Ports():
                 return {"ports": self._ports(), "current": self.port, "baudrate": self.bus.baudrate}
@@ -396,15 +403,15 @@ class BusWorker:
                 "move back, or set zero here first"
             )
         self._wrote_eeprom(step.id, " (control on)")
-        motor.move_to(target, rpm=step.rpm)
-        began = time.monotonic()
-        times: list[float] = [0.0]
-        positions: list[float] = [start]
-        while (elapsed := time.monotonic() - began) < step.duration:
+
+        def progress(event: object) -> None:  # each reading as it comes: the plots, and the stop's chance
             self._check_estop()
-            state = self._sample(step.id)
-            times.append(round(elapsed, 4))
-            positions.append(state.device_position)
+            if isinstance(event, Reading):
+                self._plot(event.state)
+
+        readings = self.bus.run(step_run(motor.procedures, target, step.rpm, step.duration), on_note=progress)
+        times = [0.0, *(round(r.t, 4) for r in readings)]
+        positions = [start, *(r.state.device_position for r in readings)]
         figures = analyse(times, positions, start, target)
         return {
             "id": step.id,
@@ -441,14 +448,7 @@ class BusWorker:
 
     def _set_zero(self, device_id: int) -> dict[str, Any]:
         motor = self.motor(device_id)
-        self.bus.send(ResetPosition(device_id))
-        motor.procedures.tracker.reset()
-        deadline = time.monotonic() + 0.5
-        while True:  # the new zero shows in the next reading
-            state = motor.read_state()
-            if abs(state.device_position) < 1.0 or time.monotonic() >= deadline:
-                break
-            time.sleep(0.02)
+        state = self.bus.run(set_zero(self.bus.core, motor.procedures))
         return {"id": device_id, "device_position": state.device_position, "position": state.position}
 
     def _change_id(self, device_id: int, new_id: int) -> dict[str, Any]:
@@ -567,41 +567,15 @@ class BusWorker:
         """
         if self._port_down():
             raise PortLost(reconnecting(self.bus.transport).lost_text())  # type: ignore[union-attr]
-        rates = sorted({*self.known.values(), self.bus.baudrate})
-        for rate in rates:
-            self.bus.baudrate = rate
-            self.bus.send(SetControl(BROADCAST_ID, 1))
         for device_id in self.known:
             self._wrote_eeprom(device_id, " after the emergency stop")
-            with contextlib.suppress(NurimcError):  # the broadcast went out; the read-back below tells the truth
-                self.motor(device_id).release()  # records it in the handle: the next move turns control on again
-        controls: dict[str, Any] = {}
-        unconfirmed = set(self.known)
-        deadline = time.monotonic() + ESTOP_VERIFY_SECONDS
-        while unconfirmed:
-            for device_id in sorted(unconfirmed):
-                controls[str(device_id)] = value = self._read_control(device_id)
-                if value == "off":
-                    unconfirmed.discard(device_id)
-                else:  # still on, or not answering yet: tell it again
-                    with contextlib.suppress(NurimcError):
-                        self.motor(device_id).release()
-            if not unconfirmed or time.monotonic() >= deadline:
-                break
-            time.sleep(0.05)
+        motors = {m.id: (self._handle(m.id).procedures, m.baudrate) for m in self.motors.values()}
+        result: dict[str, Any] = self.bus.run(emergency_stop(self.bus.core, motors, ESTOP_VERIFY_SECONDS))
         if latched:
             self.stop_pending = False
             transport = reconnecting(self.bus.transport)
             if transport is not None:
                 transport.on_return("estop", None)
-        result = {"rates": rates, "control": controls, "generation": self.generation, "latched": latched}
+        result.update(generation=self.generation, latched=latched)
         self.publish({"type": "estop", **result})
         return result
-
-    def _read_control(self, device_id: int) -> str:
-        try:
-            return str(self.motor(device_id).get("control"))
-        except PortLost:
-            raise
-        except NurimcError as error:
-            return f"unknown: {error}"
