@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..client.actions import Note, Now, Procedure, Wait
+from ..client.actions import Note, Now, Procedure, Receive, Wait
 from ..client.core import BusCore
 from ..errors import NurimcError, PortLost
 from ..motor import MotorProcedures, MotorState
@@ -86,6 +86,14 @@ def _control(motor: MotorProcedures) -> Procedure[str]:
         raise
     except NurimcError as error:
         return f"unknown: {error}"
+
+
+def probe_port() -> Procedure[int]:
+    """Look at the port without sending: takes what came unasked (noise, a late answer: dropped)
+    and fails if the port is gone. Returns the number of bytes dropped."""
+    now = yield Now()
+    data: bytes = yield Receive(64, now)
+    return len(data)
 
 
 def set_zero(core: BusCore, motor: MotorProcedures) -> Procedure[MotorState]:

@@ -14,6 +14,7 @@ other command goes out. Nothing asked during the outage is replayed.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from collections.abc import Callable
@@ -28,13 +29,14 @@ from ..motor import Motor, MotorState
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
-from .procedures import Reading, emergency_stop, set_zero, step_run
+from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
 
 POLL_HZ = 200.0  # at most this many reads of each watched motor per second
 ESTOP_VERIFY_SECONDS = 2.0  # the controllers answer again once their EEPROM write is done (50-300 ms)
 ERROR_REPEAT = 1.0  # s between two reports of the same motor's read failure
+IDLE_PROBE = 1.0  # s without any bus work before the port is looked at (a lost port is noticed in use)
 DOWN_RECHECK = 1.0  # s: while the port is down the thread sleeps this long between looks (no busy loop)
 STOP_PENDING = "stop pending: port lost"
 BUSY_MARGIN = 0.2  # s after a controller's busy window during which a failed reading is still "busy"
@@ -202,11 +204,18 @@ class BusWorker:
         next_poll = 0.0
         cond = self.jobs.cond
         while True:
+            idle = False
             with cond:
                 while not self._stopping and not self.jobs and not self.watched and self._caught_up():
-                    cond.wait()
+                    if not cond.wait(IDLE_PROBE) and not self._port_down():
+                        idle = True  # nothing asked for a while: look whether the port is still there
+                        break
                 if self._stopping:
                     break
+            if idle:
+                self._probe()
+                continue
+            with cond:
                 job = None if not self._caught_up() else self.jobs.take()
                 if job is None and self._caught_up():
                     delay = DOWN_RECHECK if self._port_down() else next_poll - time.monotonic()
@@ -221,6 +230,11 @@ class BusWorker:
                 next_poll = time.monotonic() + 1.0 / POLL_HZ
                 self._poll()
         self.jobs.finish_cancelled()  # every `done` is called exactly once, also on the way out
+
+    def _probe(self) -> None:
+        """An idle console notices a lost port too (a `port` event), not only at the next command."""
+        with contextlib.suppress(NurimcError):
+            self.bus.run(probe_port())
 
     def _carry_out(self, job: Job) -> None:
         command = job.command
