@@ -86,6 +86,8 @@ class BusWorker:
         #: an emergency stop asked while the port was lost, not yet carried out and read back
         self.stop_pending = False
         self._returns_seen = 0  # the transport's count of returns this thread has caught up with
+        #: motors set turning by `run` (a speed with no end): stopped first if the port is lost meanwhile
+        self.turning: set[int] = set()
         self._watch_port()
         self._thread = threading.Thread(target=self._loop, name="nurimc-dashboard-bus", daemon=True)
 
@@ -156,7 +158,13 @@ class BusWorker:
             self._returns_seen = transport.returns
 
     def _port_event(self, event: PortEvent) -> None:
-        """From the thread that saw the loss or the return: tell the pages, wake the bus thread."""
+        """From the thread that saw the loss or the return: tell the pages, wake the bus thread.
+        A motor turning by `run` is no longer under anyone's control once the port is lost: its
+        control off becomes the first frame on the return."""
+        transport = reconnecting(self.bus.transport)
+        if event.kind == "lost" and transport is not None:
+            for device_id in sorted(self.turning):
+                transport.on_return(f"stop {device_id:03d}", SetControl(device_id, 1).encode())
         message: dict[str, Any] = {"type": "port", "state": event.kind, "text": event.text}
         if event.down_for is not None:
             message["down_for"] = round(event.down_for, 3)
@@ -181,6 +189,7 @@ class BusWorker:
         self._returns_seen = transport.returns
         self.bus.core.control_released.clear()  # what was known before the outage may no longer hold
         result: dict[str, Any] = {"type": "port", "state": "resumed", **self.port_state()}
+        result["stopped"], self.turning = sorted(self.turning), set()  # control off went first
         if self.stop_pending:
             try:
                 result["estop"] = self._stop_now(latched=True)
@@ -323,18 +332,22 @@ class BusWorker:
                 motor = self.motor(device_id)
                 self._wrote_eeprom(device_id, " (control on)")
                 (motor.move_by if relative else motor.move_to)(degrees, rpm=rpm, seconds=seconds)
+                self.turning.discard(device_id)  # a move ends by itself
                 return {"id": device_id}
             case c.RunMotor(device_id, rpm, ramp):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).run(rpm, ramp)
+                self.turning.add(device_id)
                 return {"id": device_id}
             case c.Release(device_id):
                 self._wrote_eeprom(device_id, " after the release")
                 self.motor(device_id).release()
+                self.turning.discard(device_id)
                 return {"id": device_id, "control": "off"}
             case c.HoldMotor(device_id):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).hold()
+                self.turning.discard(device_id)
                 return {"id": device_id}
             case c.ReadSettings(device_id):
                 return {"id": device_id, "settings": self.motor(device_id).read_settings()}
@@ -590,6 +603,7 @@ class BusWorker:
             transport = reconnecting(self.bus.transport)
             if transport is not None:
                 transport.on_return("estop", None)
+        self.turning.clear()
         result.update(generation=self.generation, latched=latched)
         self.publish({"type": "estop", **result})
         return result
