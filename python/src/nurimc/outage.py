@@ -32,6 +32,9 @@ def stderr_line(text: str) -> None:
 
 
 class OutageGuard:
+    #: s between two looks at a lost port by a tool that polls (the reopen itself is the transport's)
+    recheck = 0.1
+
     def __init__(self, transport: Transport, say: Callable[[str], None]) -> None:
         self.transport: ReconnectingTransport | None = reconnecting(transport)
         self.say = say
@@ -76,6 +79,15 @@ class OutageGuard:
             self.stops_on_return[device_id] = "stop"
             self.transport.on_return(f"stop {device_id:03d}", SetControl(device_id, 1).encode())
         self.say(f"could not stop ID {text}: the port is lost; control off is sent first when it returns")
+
+    def port_lost_at_exit(self) -> str | None:
+        """The line a tool ending while its port is down says (None: the port is up)."""
+        if not self.down or self.transport is None:
+            return None
+        return (
+            f"{self.transport.lost_text().split(' and being reopened')[0]} at exit: motors could not be "
+            "stopped on the way out; any motor still turning must be stopped by other means (cut its power)"
+        )
 
     def ending(self) -> None:
         """The tool ends: motors whose stop still waits for the port were not stopped; say so."""

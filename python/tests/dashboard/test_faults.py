@@ -140,7 +140,7 @@ def test_negative_rpm_and_blank_values_are_refused_with_a_reason() -> None:
         with pytest.raises(c.CommandError) as refused:
             c.parse(message)
         assert says in str(refused.value)
-    assert c.parse({"op": "factory_reset", "id": 3, "confirm": "RESET 3"}) == c.FactoryReset(3)
+    assert c.parse({"op": "factory_reset", "id": 3, "confirm": "RESET 3"}) == c.FactoryResetMotor(3)
 
 
 def test_no_reply_is_dropped_under_a_flood(console: TestClient) -> None:

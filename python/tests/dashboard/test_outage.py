@@ -97,6 +97,23 @@ def test_an_estop_during_an_outage_is_latched_and_carried_out_first_on_return(co
         assert wait_for(ws, lambda m: m.get("type") == "samples", "fresh samples")["rows"]
 
 
+def test_a_motor_turning_by_run_is_stopped_first_when_the_port_returns(console: Console) -> None:
+    with console.client.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
+        ws.receive_json()
+        assert ask(ws, "discover", rates=[BAUD])["ok"]
+        assert ask(ws, "run", id=2, rpm=30)["ok"]
+        moved = ask(ws, "move", id=1, degrees=90, rpm=30)
+        assert moved["ok"], moved  # a move ends by itself: left alone
+        console.proxy.cut()
+        wait_for(ws, lambda m: m.get("type") == "port", "the port event")
+        console.proxy.restore()
+        back = wait_for(ws, lambda m: m.get("type") == "port" and m.get("state") == "resumed", "the return")
+        assert back["stopped"] == [2]
+        assert frames_after_cut(console.proxy)[0] == SetControl(2, 1)
+        assert console.sim.controllers[1].settings.control == 1
+        assert console.sim.controllers[0].settings.control == 0
+
+
 def test_nothing_asked_during_the_outage_is_sent_after_it(console: Console) -> None:
     with console.client.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
         ws.receive_json()
@@ -134,7 +151,7 @@ def test_the_scheduler_serves_pages_in_turn_and_the_stop_first() -> None:
 
     flooder, other = object(), object()
     for _ in range(60):
-        jobs.submit(c.Hold(1), done("flood"), owner=flooder)
+        jobs.submit(c.HoldMotor(1), done("flood"), owner=flooder)
     assert jobs.pending(flooder) == 50  # bounded: the rest were refused at once
     assert sum("busy" in (e or "") for _, _, e in answers) == 10
     jobs.submit(c.ReadSettings(2), done("other"), owner=other)

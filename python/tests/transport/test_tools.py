@@ -6,6 +6,7 @@ import itertools
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -96,3 +97,40 @@ def test_sniff_listens_again_when_its_port_returns(tmp_path: Path) -> None:
     gaps = [(a, b) for a, b in itertools.pairwise(times) if b - a >= CUT * 0.8]
     assert len(gaps) == 1, gaps  # the outage, and frames again after it
     assert times[-1] - gaps[0][1] > 0.3
+
+
+def test_record_resumes_with_fresh_readings_after_the_port_returns(tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    recording = tmp_path / "run.mcap"
+    with cuttable_bus("pty", tmp_path) as (_, proxy):
+        options = ("--port", proxy.url, "--baud", str(BAUD))
+        record = start(*options, "record", "--mcap", str(recording), "--ids", "1", "--rate", "20", "--seconds", "4")
+        wait_until(lambda: proxy.from_host, 20)
+        proxy.cut()
+        time.sleep(CUT)
+        proxy.restore()
+        out, err = record.communicate(timeout=30)
+    assert record.returncode == 0, out + err
+    assert err.count(" lost (") == 1 and err.count("back after") == 1, err
+    with recording.open("rb") as stream:
+        messages = make_reader(stream).iter_messages()
+        times = [m.log_time / 1e9 for _, channel, m in messages if "joint_states" in channel.topic]
+    gaps = [(a, b) for a, b in itertools.pairwise(times) if b - a >= CUT * 0.8]
+    assert len(gaps) == 1, gaps  # no joint_states while the port was down (never a stale one)
+    assert times[-1] - gaps[0][1] > 0.3  # and fresh ones again after it
+
+
+def test_the_console_ending_while_its_port_is_down_says_the_motors_could_not_be_stopped(tmp_path: Path) -> None:
+    with cuttable_bus("pty", tmp_path) as (_, proxy):
+        console = start("--port", proxy.url, "--baud", str(BAUD), "dashboard", "--listen", "127.0.0.1:0")
+        assert console.stdout is not None
+        assert console.stdout.readline().startswith("ready:")
+        proxy.cut()
+        assert console.stderr is not None
+        said = console.stderr.readline()  # an idle console notices the loss too (it looks every second)
+        assert " lost (" in said, said
+        console.send_signal(signal.SIGINT)
+        _, err = console.communicate(timeout=30)
+    assert "at exit: motors could not be stopped" in err, err
+    assert "Traceback" not in err

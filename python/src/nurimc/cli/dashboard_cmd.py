@@ -8,6 +8,7 @@ import socket
 import typer
 
 from ..client.sync import Bus
+from ..outage import OutageGuard, stderr_line
 from .common import EXIT_USAGE, fail, open_bus, options, out
 
 
@@ -75,9 +76,13 @@ def dashboard(
         bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, port=port_name, on_ready=ready
     )
     server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **uvicorn_options()))
+    outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each
     try:
         server.run(sockets=[sock])
     finally:
+        lost = outage.port_lost_at_exit()
+        if lost:
+            stderr_line(lost)
         bus.close()
         if sim_bus is not None:
             sim_bus.close()

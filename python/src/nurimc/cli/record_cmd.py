@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from ..errors import NurimcError, PortLost
-from ..outage import OutageGuard
+from ..outage import OutageGuard, stderr_line
 from .common import EXIT_DEVICE, Number, fail, options, out
 from .ros2_cmd import RATE, SECONDS
 
@@ -92,7 +92,7 @@ def record(
         def loop() -> None:
             period = 1.0 / rate if rate else 0.0
             next_read = time.monotonic()
-            outage = OutageGuard(bus.transport, lambda text: out.print(text, soft_wrap=True))
+            outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
             while not stop.is_set():
                 try:
                     bridge.readings(bus.run(read_states(procedures)))

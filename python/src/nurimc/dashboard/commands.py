@@ -46,7 +46,7 @@ class Move:
 
 
 @dataclass(frozen=True, slots=True)
-class Run:
+class RunMotor:
     id: int
     rpm: float
     ramp: float
@@ -58,7 +58,7 @@ class Release:
 
 
 @dataclass(frozen=True, slots=True)
-class Hold:
+class HoldMotor:
     id: int
 
 
@@ -115,7 +115,7 @@ class ChangeBaud:
 
 
 @dataclass(frozen=True, slots=True)
-class FactoryReset:
+class FactoryResetMotor:
     id: int
 
 
@@ -139,9 +139,9 @@ Command = (
     Discover
     | Watch
     | Move
-    | Run
+    | RunMotor
     | Release
-    | Hold
+    | HoldMotor
     | ReadSettings
     | WriteSetting
     | Step
@@ -152,7 +152,7 @@ Command = (
     | SetZero
     | ChangeId
     | ChangeBaud
-    | FactoryReset
+    | FactoryResetMotor
     | Ports
     | OpenBus
 )
@@ -227,10 +227,10 @@ def _move(m: dict[str, Any]) -> Move:
     return Move(device_id, degrees, rpm, seconds, relative)
 
 
-def _run(m: dict[str, Any]) -> Run:
+def _run(m: dict[str, Any]) -> RunMotor:
     device_id, rpm, ramp = _device_id(m), _number(m, "rpm"), _number(m, "ramp", 0.5)
     _ranges(lambda: _checker.make_run(rpm, ramp))
-    return Run(device_id, rpm, ramp)
+    return RunMotor(device_id, rpm, ramp)
 
 
 def _write_setting(m: dict[str, Any]) -> WriteSetting:
@@ -330,12 +330,12 @@ def _open_bus(m: dict[str, Any]) -> OpenBus:
     return OpenBus(port.strip(), int(rate))
 
 
-def _factory_reset(m: dict[str, Any]) -> FactoryReset:
+def _factory_reset(m: dict[str, Any]) -> FactoryResetMotor:
     device_id = _device_id(m)
     expected = f"RESET {device_id}"
     if m.get("confirm") != expected:
         raise CommandError(f"factory_reset: erases every setting of ID {device_id}; confirm by typing {expected!r}")
-    return FactoryReset(device_id)
+    return FactoryResetMotor(device_id)
 
 
 _PARSERS: dict[str, Any] = {
@@ -344,7 +344,7 @@ _PARSERS: dict[str, Any] = {
     "move": _move,
     "run": _run,
     "release": lambda m: Release(_device_id(m)),
-    "hold": lambda m: Hold(_device_id(m)),
+    "hold": lambda m: HoldMotor(_device_id(m)),
     "read_settings": lambda m: ReadSettings(_device_id(m)),
     "set": _write_setting,
     "step": _step,

@@ -26,18 +26,20 @@ from ..client.sync import Bus
 from ..discovery import Found, Progress, discover
 from ..errors import ControllerBusy, NurimcError, PortError, PortLost
 from ..motor import Motor, MotorState
-from ..protocol import BROADCAST_ID, FieldRangeError, ResetPosition, SetControl
-from ..protocol.host import PROFILES
+from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
+from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
 
 POLL_HZ = 200.0  # at most this many reads of each watched motor per second
 ESTOP_VERIFY_SECONDS = 2.0  # the controllers answer again once their EEPROM write is done (50-300 ms)
 ERROR_REPEAT = 1.0  # s between two reports of the same motor's read failure
+IDLE_PROBE = 1.0  # s without any bus work before the port is looked at (a lost port is noticed in use)
 DOWN_RECHECK = 1.0  # s: while the port is down the thread sleeps this long between looks (no busy loop)
 STOP_PENDING = "stop pending: port lost"
+BUSY_MARGIN = 0.2  # s after a controller's busy window during which a failed reading is still "busy"
 REOPEN_WAIT = 3.0  # s a reopen asked from the page waits for the port before answering
 
 __all__ = ["CANCELLED", "MAX_PENDING", "BusWorker", "Done", "KnownMotor"]
@@ -78,13 +80,14 @@ class BusWorker:
         self._samples: list[list[float]] = []
         self._samples_lock = threading.Lock()
         self._last_error: dict[int, float] = {}
-        self._busy_until: dict[int, tuple[float, str]] = {}  # motor -> (end of its EEPROM busy window, why)
-        self.busy_window = PROFILES[product].busy_window if product in PROFILES else 0.3
+        self._busy_why: dict[int, str] = {}  # motor -> what last wrote its EEPROM (the window itself is BusCore's)
         self.clock_origin = time.monotonic()
         self.reads = 0
         #: an emergency stop asked while the port was lost, not yet carried out and read back
         self.stop_pending = False
         self._returns_seen = 0  # the transport's count of returns this thread has caught up with
+        #: motors set turning by `run` (a speed with no end): stopped first if the port is lost meanwhile
+        self.turning: set[int] = set()
         self._watch_port()
         self._thread = threading.Thread(target=self._loop, name="nurimc-dashboard-bus", daemon=True)
 
@@ -155,7 +158,13 @@ class BusWorker:
             self._returns_seen = transport.returns
 
     def _port_event(self, event: PortEvent) -> None:
-        """From the thread that saw the loss or the return: tell the pages, wake the bus thread."""
+        """From the thread that saw the loss or the return: tell the pages, wake the bus thread.
+        A motor turning by `run` is no longer under anyone's control once the port is lost: its
+        control off becomes the first frame on the return."""
+        transport = reconnecting(self.bus.transport)
+        if event.kind == "lost" and transport is not None:
+            for device_id in sorted(self.turning):
+                transport.on_return(f"stop {device_id:03d}", SetControl(device_id, 1).encode())
         message: dict[str, Any] = {"type": "port", "state": event.kind, "text": event.text}
         if event.down_for is not None:
             message["down_for"] = round(event.down_for, 3)
@@ -180,6 +189,7 @@ class BusWorker:
         self._returns_seen = transport.returns
         self.bus.core.control_released.clear()  # what was known before the outage may no longer hold
         result: dict[str, Any] = {"type": "port", "state": "resumed", **self.port_state()}
+        result["stopped"], self.turning = sorted(self.turning), set()  # control off went first
         if self.stop_pending:
             try:
                 result["estop"] = self._stop_now(latched=True)
@@ -203,11 +213,18 @@ class BusWorker:
         next_poll = 0.0
         cond = self.jobs.cond
         while True:
+            idle = False
             with cond:
                 while not self._stopping and not self.jobs and not self.watched and self._caught_up():
-                    cond.wait()
+                    if not cond.wait(IDLE_PROBE) and not self._port_down():
+                        idle = True  # nothing asked for a while: look whether the port is still there
+                        break
                 if self._stopping:
                     break
+            if idle:
+                self._probe()
+                continue
+            with cond:
                 job = None if not self._caught_up() else self.jobs.take()
                 if job is None and self._caught_up():
                     delay = DOWN_RECHECK if self._port_down() else next_poll - time.monotonic()
@@ -222,6 +239,11 @@ class BusWorker:
                 next_poll = time.monotonic() + 1.0 / POLL_HZ
                 self._poll()
         self.jobs.finish_cancelled()  # every `done` is called exactly once, also on the way out
+
+    def _probe(self) -> None:
+        """An idle console notices a lost port too (a `port` event), not only at the next command."""
+        with contextlib.suppress(NurimcError):
+            self.bus.run(probe_port())
 
     def _carry_out(self, job: Job) -> None:
         command = job.command
@@ -253,8 +275,8 @@ class BusWorker:
                 return
             except NurimcError as error:
                 now = time.monotonic()
-                busy_until, why = self._busy_until.get(device_id, (0.0, ""))
-                if now < busy_until or isinstance(error, ControllerBusy):
+                why = self._busy_why.get(device_id, "")
+                if now < self.bus.core.busy_until(device_id) + BUSY_MARGIN or isinstance(error, ControllerBusy):
                     text = f"ID {device_id} is busy writing its settings{why}; readings resume in a moment"
                     kind = "busy"
                 else:
@@ -266,18 +288,25 @@ class BusWorker:
     def _sample(self, device_id: int) -> MotorState:
         """Read one motor's state and queue it for the plots."""
         state = self.motor(device_id).read_state()
+        self._plot(state)
+        return state
+
+    def _plot(self, state: MotorState) -> None:
+        device_id = state.id
         self.reads += 1
         t = round(time.monotonic() - self.clock_origin, 4)
         row = [device_id, t, state.position, state.speed, state.current, state.device_position]
         with self._samples_lock:
             self._samples.append(row)
-        return state
 
     def motor(self, device_id: int) -> Motor:
         """The motor's handle, with the bus switched to its rate."""
         known = self.motors.get(device_id)
         if known is not None and known.baudrate != self.bus.baudrate:
             self.bus.baudrate = known.baudrate
+        return self._handle(device_id)
+
+    def _handle(self, device_id: int) -> Motor:
         if device_id not in self._handles:
             # the product line discovery found for the ID (nurimc.products) beats the default "mc"
             found = self.bus.core.products.get(device_id) if self.product == "mc" else None
@@ -285,8 +314,9 @@ class BusWorker:
         return self._handles[device_id]
 
     def _wrote_eeprom(self, device_id: int, why: str) -> None:
-        """The controller may not answer for a while: say so instead of blaming the wiring."""
-        self._busy_until[device_id] = (time.monotonic() + self.busy_window + 0.2, why)
+        """What is about to write this controller's EEPROM: while the BusCore's busy window for it
+        lasts, a reading that fails says so instead of blaming the wiring."""
+        self._busy_why[device_id] = why
 
     def _check_estop(self) -> None:
         if self.jobs.stop_requested.is_set():
@@ -304,18 +334,22 @@ class BusWorker:
                 motor = self.motor(device_id)
                 self._wrote_eeprom(device_id, " (control on)")
                 (motor.move_by if relative else motor.move_to)(degrees, rpm=rpm, seconds=seconds)
+                self.turning.discard(device_id)  # a move ends by itself
                 return {"id": device_id}
-            case c.Run(device_id, rpm, ramp):
+            case c.RunMotor(device_id, rpm, ramp):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).run(rpm, ramp)
+                self.turning.add(device_id)
                 return {"id": device_id}
             case c.Release(device_id):
                 self._wrote_eeprom(device_id, " after the release")
                 self.motor(device_id).release()
+                self.turning.discard(device_id)
                 return {"id": device_id, "control": "off"}
-            case c.Hold(device_id):
+            case c.HoldMotor(device_id):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).hold()
+                self.turning.discard(device_id)
                 return {"id": device_id}
             case c.ReadSettings(device_id):
                 return {"id": device_id, "settings": self.motor(device_id).read_settings()}
@@ -335,7 +369,7 @@ class BusWorker:
                 return self._change_id(device_id, new_id)
             case c.ChangeBaud(device_id, rate):
                 return self._change_baud(device_id, rate)
-            case c.FactoryReset(device_id):
+            case c.FactoryResetMotor(device_id):
                 return self._factory_reset(device_id)
             case c.Ports():
                 return {"ports": self._ports(), "current": self.port, "baudrate": self.bus.baudrate}
@@ -398,15 +432,15 @@ class BusWorker:
                 "move back, or set zero here first"
             )
         self._wrote_eeprom(step.id, " (control on)")
-        motor.move_to(target, rpm=step.rpm)
-        began = time.monotonic()
-        times: list[float] = [0.0]
-        positions: list[float] = [start]
-        while (elapsed := time.monotonic() - began) < step.duration:
+
+        def progress(event: object) -> None:  # each reading as it comes: the plots, and the stop's chance
             self._check_estop()
-            state = self._sample(step.id)
-            times.append(round(elapsed, 4))
-            positions.append(state.device_position)
+            if isinstance(event, Reading):
+                self._plot(event.state)
+
+        readings = self.bus.run(step_run(motor.procedures, target, step.rpm, step.duration), on_note=progress)
+        times = [0.0, *(round(r.t, 4) for r in readings)]
+        positions = [start, *(r.state.device_position for r in readings)]
         figures = analyse(times, positions, start, target)
         return {
             "id": step.id,
@@ -443,14 +477,7 @@ class BusWorker:
 
     def _set_zero(self, device_id: int) -> dict[str, Any]:
         motor = self.motor(device_id)
-        self.bus.send(ResetPosition(device_id))
-        motor.procedures.tracker.reset()
-        deadline = time.monotonic() + 0.5
-        while True:  # the new zero shows in the next reading
-            state = motor.read_state()
-            if abs(state.device_position) < 1.0 or time.monotonic() >= deadline:
-                break
-            time.sleep(0.02)
+        state = self.bus.run(set_zero(self.bus.core, motor.procedures))
         return {"id": device_id, "device_position": state.device_position, "position": state.position}
 
     def _change_id(self, device_id: int, new_id: int) -> dict[str, Any]:
@@ -569,41 +596,16 @@ class BusWorker:
         """
         if self._port_down():
             raise PortLost(reconnecting(self.bus.transport).lost_text())  # type: ignore[union-attr]
-        rates = sorted({*self.known.values(), self.bus.baudrate})
-        for rate in rates:
-            self.bus.baudrate = rate
-            self.bus.send(SetControl(BROADCAST_ID, 1))
         for device_id in self.known:
             self._wrote_eeprom(device_id, " after the emergency stop")
-            with contextlib.suppress(NurimcError):  # the broadcast went out; the read-back below tells the truth
-                self.motor(device_id).release()  # records it in the handle: the next move turns control on again
-        controls: dict[str, Any] = {}
-        unconfirmed = set(self.known)
-        deadline = time.monotonic() + ESTOP_VERIFY_SECONDS
-        while unconfirmed:
-            for device_id in sorted(unconfirmed):
-                controls[str(device_id)] = value = self._read_control(device_id)
-                if value == "off":
-                    unconfirmed.discard(device_id)
-                else:  # still on, or not answering yet: tell it again
-                    with contextlib.suppress(NurimcError):
-                        self.motor(device_id).release()
-            if not unconfirmed or time.monotonic() >= deadline:
-                break
-            time.sleep(0.05)
+        motors = {m.id: (self._handle(m.id).procedures, m.baudrate) for m in self.motors.values()}
+        result: dict[str, Any] = self.bus.run(emergency_stop(self.bus.core, motors, ESTOP_VERIFY_SECONDS))
         if latched:
             self.stop_pending = False
             transport = reconnecting(self.bus.transport)
             if transport is not None:
                 transport.on_return("estop", None)
-        result = {"rates": rates, "control": controls, "generation": self.generation, "latched": latched}
+        self.turning.clear()
+        result.update(generation=self.generation, latched=latched)
         self.publish({"type": "estop", **result})
         return result
-
-    def _read_control(self, device_id: int) -> str:
-        try:
-            return str(self.motor(device_id).get("control"))
-        except PortLost:
-            raise
-        except NurimcError as error:
-            return f"unknown: {error}"

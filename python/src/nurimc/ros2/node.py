@@ -196,6 +196,8 @@ class BridgeNode:
             if now >= next_read:
                 self.read_and_publish()
                 next_read = max(next_read + self.period, time.monotonic()) if self.period else time.monotonic()
+                if self.outage.down:  # no reading can succeed: look again later, not in a busy loop
+                    next_read = max(next_read, time.monotonic() + self.outage.recheck)
             if now >= next_diagnostics:
                 self.publish_diagnostics()
                 next_diagnostics = now + DIAGNOSTICS_PERIOD
