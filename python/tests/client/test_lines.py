@@ -139,6 +139,11 @@ def test_scan_and_status_from_the_command_line() -> None:
         assert ("position-kp" in status["settings"]) == (product != "sm")
     run = nurimc("--id", "9", "--baud", "115200", "run", "30")
     assert run.returncode == 2 and "--product sm-cs or sm-readme" in run.stderr
+    written = nurimc("--id", "7", "--baud", "57600", "set", "ratio", "5")  # RSA's 09, read back with A6
+    assert written.returncode == 0, written.stderr
+    assert json.loads(written.stdout)["value"] == 5.0
+    refused = nurimc("--id", "7", "--baud", "57600", "set", "rated-speed", "1000")
+    assert refused.returncode != 0 and "RSA line has no" in refused.stderr
 
 
 def test_id_changes_and_resets_go_out_in_the_motors_line() -> None:
