@@ -162,3 +162,16 @@ def test_id_changes_and_resets_go_out_in_the_motors_line() -> None:
     assert sim.controller(0).product == "rsa"
     bus.close()
     sim.close()
+
+
+def test_the_bus_refuses_a_frame_that_means_something_else_to_the_motor() -> None:
+    from nurimc.protocol import SetControl, WrongLineError
+
+    sim, bus = lines_bus({7: (9600, "rsa")}, baud=9600)
+    bus.run(discover(bus.core, rates=[9600]))
+    with pytest.raises(WrongLineError, match=r"use RSA's own set_control \(mode 0A\)"):
+        bus.send(SetControl(7, 1))  # MC's 0C: an RSA's position reset
+    bus.motor(7).ping()  # a ping is the same frame in every line
+    assert sim.controller(7).settings.control == 0
+    bus.close()
+    sim.close()
