@@ -195,7 +195,7 @@ def watch(
         fail("watch: give the motors to watch with --id 1,2,3")
     readings: list[dict[str, Any]] = []
     with open_bus(o) as bus:
-        motors = [bus.motor(i, o.product) for i in o.ids]
+        motors = [motor_for(bus, o, i, acts=False) for i in o.ids]
 
         def render() -> Any:
             rows = table(None, "ID", "position °", "speed RPM", "current A", "position sign")
