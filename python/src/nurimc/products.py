@@ -63,15 +63,21 @@ def detect_line(core: BusCore, device_id: int) -> Procedure[Identified]:
     """Ask the rule's questions in order; the first answered names the line. Records the line
     as the ID's product on the core (for its busy window and for bus.motor(id)) unless the
     caller declared a product of that line already (e.g. blmc-h for an MC answer)."""
+    known = core.products.pop(device_id, None)  # the probes are of every line: none is refused
     for key, _ in RULE:
         try:
             yield from core.ask(probe(key, device_id))
         except (NoAnswer, UnexpectedAnswer):
             continue
-        known = core.products.get(device_id)
-        if known is None or line_of_product(known) != key:
-            core.products[device_id] = key
+        except BaseException:
+            if known is not None:
+                core.products[device_id] = known
+            raise
+        keep = known is not None and line_of_product(known) == key  # e.g. blmc-h, declared, answers as MC
+        core.products[device_id] = known if keep and known is not None else key
         return Identified(device_id, key, dict(RULE)[key])
+    if known is not None:
+        core.products[device_id] = known
     return Identified(device_id, UNKNOWN, None)
 
 

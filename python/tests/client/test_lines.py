@@ -139,6 +139,11 @@ def test_scan_and_status_from_the_command_line() -> None:
         assert ("position-kp" in status["settings"]) == (product != "sm")
     run = nurimc("--id", "9", "--baud", "115200", "run", "30")
     assert run.returncode == 2 and "--product sm-cs or sm-readme" in run.stderr
+    written = nurimc("--id", "7", "--baud", "57600", "set", "ratio", "5")  # RSA's 09, read back with A6
+    assert written.returncode == 0, written.stderr
+    assert json.loads(written.stdout)["value"] == 5.0
+    refused = nurimc("--id", "7", "--baud", "57600", "set", "rated-speed", "1000")
+    assert refused.returncode != 0 and "RSA line has no" in refused.stderr
 
 
 def test_id_changes_and_resets_go_out_in_the_motors_line() -> None:
@@ -155,5 +160,18 @@ def test_id_changes_and_resets_go_out_in_the_motors_line() -> None:
     assert sim.controller(4).product == "sm"
     bus.run(cfg.factory_reset(bus.core, 8, confirm=True))  # RSA's factory reset is 0D (MC's 10)
     assert sim.controller(0).product == "rsa"
+    bus.close()
+    sim.close()
+
+
+def test_the_bus_refuses_a_frame_that_means_something_else_to_the_motor() -> None:
+    from nurimc.protocol import SetControl, WrongLineError
+
+    sim, bus = lines_bus({7: (9600, "rsa")}, baud=9600)
+    bus.run(discover(bus.core, rates=[9600]))
+    with pytest.raises(WrongLineError, match=r"use RSA's own set_control \(mode 0A\)"):
+        bus.send(SetControl(7, 1))  # MC's 0C: an RSA's position reset
+    bus.motor(7).ping()  # a ping is the same frame in every line
+    assert sim.controller(7).settings.control == 0
     bus.close()
     sim.close()

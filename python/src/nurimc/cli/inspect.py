@@ -246,7 +246,7 @@ def watch(
         fail("watch: give the motors to watch with --id 1,2,3")
     readings: list[dict[str, Any]] = []
     with open_bus(o, reconnect=True) as bus:
-        motors = [bus.motor(i, o.product) for i in o.ids]
+        motors = [motor_for(bus, o, i, acts=False) for i in o.ids]
         outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each; every reading is fresh anyway
 
         def read_all() -> list[tuple[str, ...]]:

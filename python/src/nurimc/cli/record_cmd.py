@@ -86,7 +86,7 @@ def record(
             bridge = Bridge(motor_list, make_joint_names(joint_names, motor_list))
         except ValueError as error:
             fail(str(error))
-        procedures = [bus.motor(i, o.product).procedures for i in motor_list]
+        procedures = [bus.motor(i, o.product if o.product_given else None).procedures for i in motor_list]
         out.print(f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} (Ctrl-C ends)", soft_wrap=True)
 
         def loop() -> None:

@@ -21,7 +21,21 @@ from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
 from ..journal import RestoreJournal, incomplete_message
 from ..motor import Motor
 from ..settings import SETTINGS, Setting, setting
-from .common import EXIT_DEVICE, EXIT_OK, Options, check_baud, emit, err, fail, note, one_id, open_bus, options, table
+from .common import (
+    EXIT_DEVICE,
+    EXIT_OK,
+    Options,
+    check_baud,
+    emit,
+    err,
+    fail,
+    motor_for,
+    note,
+    one_id,
+    open_bus,
+    options,
+    table,
+)
 from .i18n import tr
 
 T = TypeVar("T")
@@ -43,7 +57,7 @@ def get(ctx: typer.Context, name: str = typer.Argument(..., help=f"One of: {NAME
         return
     s = setting(name)
     with open_bus(o) as bus:
-        value = bus.motor(one_id(o), o.product).get(s.name)
+        value = motor_for(bus, o, one_id(o), acts=False).get(s.name)
     emit(
         o,
         {"id": o.ids[0], "name": s.name, "value": value, "unit": s.unit},
@@ -74,6 +88,7 @@ def set_(
         if isinstance(wanted, Rounded) and wanted.changed:
             note(wanted.note(s.name, UNIT_SHOWN.get(s.spec.unit, "")))
     with open_bus(o) as bus:
+        motor = motor_for(bus, o, device_id)  # its product line: the same setting has other codes in others
         if name == "id":
             bus.run(config.change_id(bus.core, device_id, new))
             emit(
@@ -90,7 +105,7 @@ def set_(
                 f"ID {device_id} now talks at {rate} bps (verified); use --baud {rate} from now on",
             )
             return
-        written = bus.motor(device_id, o.product).set(s.name, wanted if isinstance(wanted, str) else wanted.physical)
+        written = motor.set(s.name, wanted if isinstance(wanted, str) else wanted.physical)
     extra = {"asked": wanted.asked} if isinstance(wanted, Rounded) and wanted.changed else {}
     emit(
         o,
@@ -112,7 +127,7 @@ def _shown(s: Setting, value: object) -> str:
 
 def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
     if o.ids:
-        return [bus.motor(i, o.product) for i in o.ids]
+        return [motor_for(bus, o, i, acts=False) for i in o.ids]
     columns = (TextColumn("{task.description}"), TimeElapsedColumn())
     with Progress(*columns, console=err, disable=o.json, transient=True) as bar:  # discovery takes seconds: live
         task = bar.add_task(f"looking for controllers at {o.baud} bps", total=None)
@@ -125,7 +140,7 @@ def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
         found = bus.run(discover(bus.core, [o.baud]), on_note=show)
     if not found:
         fail(f"no controller answers at {o.baud} bps; give --baud or --id", EXIT_DEVICE)
-    return [bus.motor(f.id, o.product) for f in found]
+    return [bus.motor(f.id, o.product if o.product_given else None) for f in found]  # the line found
 
 
 def backup(ctx: typer.Context, file: str = typer.Argument(..., help="JSON file to write.")) -> None:
@@ -152,7 +167,12 @@ def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file wri
     ids = [entry["id"] for entry in document.get("motors", [])]
     with open_bus(o) as bus:
         journal = restore_journal(o, ids, file)  # docs/cli.md: an interrupted restore is found next time
-        changed = bus.run(config.restore([bus.motor(i, o.product).procedures for i in ids], document))
+        products = {entry["id"]: entry.get("product") for entry in document.get("motors", [])}
+        motors = [  # each in the product line the backup names, unless --product says otherwise
+            bus.motor(i, o.product) if o.product_given or not products.get(i) else bus.motor(i, products[i])
+            for i in ids
+        ]
+        changed = bus.run(config.restore([m.procedures for m in motors], document))
         journal.done(ids)
     rows = table(f"restored from {file}", "change")
     for line in changed or ["nothing differed"]:
@@ -193,6 +213,7 @@ def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", h
             err.print(tr("not reset: answered no (nothing was sent)"))
             raise typer.Exit(EXIT_OK)
     with open_bus(o) as bus:
+        motor_for(bus, o, device_id)  # its product line: factory reset is 10 on MC, 0D on RSA, 09 on SM
         bus.run(config.factory_reset(bus.core, device_id, confirm=True))
     emit(
         o,

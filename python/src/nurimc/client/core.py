@@ -22,6 +22,7 @@ from ..protocol import (
     StreamParser,
     answer_class,
     build_frame,
+    product_line,
 )
 from ..protocol.host import EEPROM_WRITES, LATE_ANSWER, RETRIES, RETRY_PAUSE, busy_window
 from .actions import Discard, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
@@ -312,6 +313,7 @@ class BusCore:
         `own_pending`: answers the ID still owes belong to this call too (a broadcast read
         asking its missing motors again)."""
         attempts = 1 + (self.retries if retries is None else retries)
+        self.in_its_line(request)
         cls = answer_class(type(request))
         rid = request.id
         frame = request.encode()
@@ -379,12 +381,24 @@ class BusCore:
             return ControllerBusy(name, rid, baud, attempts, self.window(rid))
         return NoAnswer(name, rid, baud, attempts)
 
+    def in_its_line(self, message: Message) -> None:
+        """WrongLineError if the message is of another product line than its ID's known product and
+        its bytes mean something else there (docs/protocol.md, Product lines). A frame that is the
+        same message in both lines (a ping, the shared motion codes) goes through."""
+        product = self.products.get(message.id)
+        if product is not None:
+            target = product_line(product)
+            if not target.means_the_same(message):
+                target.check(message)
+
     def tell(self, *commands: Command) -> Procedure[None]:
         """Send commands back to back in one write, once every addressed ID's busy window has
         ended. Never repeated: commands get no answer, so a repeat could not be told from the
         first (and a relative move would move twice)."""
         if not commands:
             return
+        for command in commands:
+            self.in_its_line(command)
         yield from self._wait_until_free({c.id for c in commands})
         data = b"".join(c.encode() for c in commands)
         sent: Sent = yield Send(data)

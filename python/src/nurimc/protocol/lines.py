@@ -134,6 +134,14 @@ class Line:
             )
         return message
 
+    def means_the_same(self, message: Message) -> bool:
+        """Is the message's frame this line's message of the same name (same mode and size)?
+        Ping, firmware and the shared motion codes are; RSA's set_control (0A) is not MC's (0C)."""
+        if self.key == message.LINE:
+            return True
+        own = self.classes.get(message.name)
+        return own is not None and own.SPEC.mode == message.SPEC.mode and own.SPEC.size == message.SPEC.size
+
     def decode(self, frame: bytes | bytearray | memoryview) -> Message:
         """Exactly one whole frame -> this line's message (the checks and order of codec.decode)."""
         return decode_with(bytes(frame), self.by_mode)
