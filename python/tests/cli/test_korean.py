@@ -117,3 +117,12 @@ def test_hostile_call_in_korean(expected: int, args: str, shows: str, tmp_path: 
                 "(PATTERNS), run scripts/catalogs.py --update, give its Korean in "
                 "cli/locale/ko/LC_MESSAGES/nurimc.po, then run scripts/catalogs.py"
             )
+
+
+@pytest.mark.parametrize(("expected", "args"), [(c, a) for c, a, _ in _lines() if a.startswith(SERVERS)])
+def test_hostile_server_call_in_korean(expected: int, args: str) -> None:
+    """The simulator's and the console's refusals (they run apart: on success they would serve)."""
+    done = cli(*_argv(args, Path(".")), env=KOREAN)
+    assert "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert done.returncode == expected, f"nurimc {args}: {done.returncode}, expected {expected}: {done.stderr!r}"
+    assert HANGUL.search(done.stderr.split(":", 1)[1]), f"nurimc {args}: not translated: {done.stderr!r}"
