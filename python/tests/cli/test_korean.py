@@ -16,7 +16,8 @@ from typing import Any
 
 import pytest
 
-from nurimc.cli.i18n import FIELD
+from nurimc.cli.i18n import FIELD, _pattern
+from nurimc.cli.messages import PATTERNS
 
 from .inprocess import SIM, assert_clean, nurimc
 from .test_hostile import SERVERS, _argv, _lines
@@ -50,6 +51,11 @@ def cli(*args: str, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
 def test_catalogs_are_complete_and_compiled() -> None:
     """Every help text, template and message has Korean, and each .mo is its .po compiled."""
     assert _catalogs().check() == []
+
+
+def test_every_template_compiles() -> None:
+    for template in PATTERNS:
+        _pattern(template)  # a field named twice in one template would fail here
 
 
 def test_templates_keep_their_fields() -> None:
