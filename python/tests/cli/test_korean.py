@@ -16,7 +16,8 @@ from typing import Any
 
 import pytest
 
-from nurimc.cli.i18n import FIELD
+from nurimc.cli.i18n import FIELD, _pattern
+from nurimc.cli.messages import PATTERNS
 
 from .inprocess import SIM, assert_clean, nurimc
 from .test_hostile import SERVERS, _argv, _lines
@@ -50,6 +51,11 @@ def cli(*args: str, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
 def test_catalogs_are_complete_and_compiled() -> None:
     """Every help text, template and message has Korean, and each .mo is its .po compiled."""
     assert _catalogs().check() == []
+
+
+def test_every_template_compiles() -> None:
+    for template in PATTERNS:
+        _pattern(template)  # a field named twice in one template would fail here
 
 
 def test_templates_keep_their_fields() -> None:
@@ -117,3 +123,12 @@ def test_hostile_call_in_korean(expected: int, args: str, shows: str, tmp_path: 
                 "(PATTERNS), run scripts/catalogs.py --update, give its Korean in "
                 "cli/locale/ko/LC_MESSAGES/nurimc.po, then run scripts/catalogs.py"
             )
+
+
+@pytest.mark.parametrize(("expected", "args"), [(c, a) for c, a, _ in _lines() if a.startswith(SERVERS)])
+def test_hostile_server_call_in_korean(expected: int, args: str) -> None:
+    """The simulator's and the console's refusals (they run apart: on success they would serve)."""
+    done = cli(*_argv(args, Path(".")), env=KOREAN)
+    assert "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert done.returncode == expected, f"nurimc {args}: {done.returncode}, expected {expected}: {done.stderr!r}"
+    assert HANGUL.search(done.stderr.split(":", 1)[1]), f"nurimc {args}: not translated: {done.stderr!r}"

@@ -73,6 +73,8 @@ def test_move_wait_returns_at_the_target(port: str) -> None:
 
 def test_move_wait_that_times_out_is_one_line(port: str) -> None:
     late = cli(port, "move", "-300", "--rpm", "5", "--wait", "--timeout", "0.3")
-    assert late.returncode == 1
-    assert late.stderr.startswith("error: ID 1: not at -300° after 0.3 s") and late.stderr.count("\n") == 1
-    assert cli(port, "stop").returncode == 0
+    assert late.returncode == 1, late.stderr
+    assert late.stderr.startswith("error: ID 1: not at -300° after 0.3 s"), late.stderr
+    assert late.stderr.count("\n") == 1, late.stderr
+    stopped = cli(port, "stop")
+    assert stopped.returncode == 0, stopped.stderr

@@ -69,7 +69,10 @@ def tr(text: str, depth: int = 0) -> str:
         if match is None:
             continue
         parts = {k: tr(v, depth + 1) for k, v in match.groupdict().items()}
-        translated = found.pgettext(CONTEXT, template).format(**parts)
+        try:
+            translated = found.pgettext(CONTEXT, template).format(**parts)
+        except (KeyError, IndexError, ValueError):  # a broken translation never hides the message
+            continue
         if translated != text:  # a generic template ("{where}: {problem}") may change nothing
             return translated
     return text

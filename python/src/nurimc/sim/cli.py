@@ -11,6 +11,7 @@ from typing import Annotated, Any
 
 import typer
 
+from ..cli.i18n import tr
 from .bus import SimBus, describe
 from .faults import FaultConfig
 from .options import OptionError, check_baud, parse_ids, parse_motor
@@ -114,7 +115,7 @@ def sim(
             resolution,
         )
     except (OptionError, StateError, ValueError) as exc:
-        typer.echo(f"nurimc sim: {exc}", err=True)
+        typer.echo(f"nurimc sim: {tr(str(exc))}", err=True)  # in the CLI's language (docs/cli.md)
         raise typer.Exit(2) from None
     serve(bus, link, tcp, host, baud, monitor)
 
