@@ -382,7 +382,7 @@ test("raw frames: the console's polling hidden by default, filters by ID, messag
     await page.click("nav button[data-view=raw]");
     await page.check("#raw-on");
     await page.waitForFunction(() => window.dashboard.frames.length > 20);
-    const shown = () => page.locator("#raw-table tbody tr td:nth-child(4)").allTextContents();
+    const shown = () => page.locator("#raw-table tbody tr td:nth-child(4) code").allTextContents();
     // the page's own polling (request_position / position_feedback) is hidden until asked for
     await page.waitForFunction(() => /of [\d,]+ frames/.test(document.querySelector("#raw-count").textContent));
     assert.ok((await shown()).every((name) => !["request_position", "position_feedback"].includes(name)));
@@ -391,7 +391,9 @@ test("raw frames: the console's polling hidden by default, filters by ID, messag
     await card.getByRole("button", { name: "Hold" }).click();
     await page.click("nav button[data-view=raw]");
     await page.waitForFunction(() =>
-      [...document.querySelectorAll("#raw-table tbody td:nth-child(4)")].some((td) => td.textContent === "set_control"),
+      [...document.querySelectorAll("#raw-table tbody td:nth-child(4) code")].some(
+        (code) => code.textContent === "set_control",
+      ),
     );
     await page.check("#raw-polling");
     await page.fill("#raw-id", "1");
@@ -400,7 +402,9 @@ test("raw frames: the console's polling hidden by default, filters by ID, messag
     await page.waitForFunction(() => document.querySelectorAll("#raw-table tbody tr").length > 0);
     const rows = await page
       .locator("#raw-table tbody tr")
-      .evaluateAll((trs) => trs.map((tr) => [...tr.children].map((td) => td.textContent)));
+      .evaluateAll((trs) =>
+        trs.map((tr) => [...tr.children].map((td) => td.querySelector("code")?.textContent ?? td.textContent)),
+      );
     assert.ok(
       rows.every(([, dir, id, name]) => dir === "received" && id === "1" && name === "position_feedback"),
       JSON.stringify(rows.slice(0, 3)),
@@ -1205,7 +1209,7 @@ const englishLeft = (p) =>
       if (visible(node.parentElement)) texts.push(node.textContent);
     for (const e of document.querySelectorAll("input[placeholder]")) if (visible(e)) texts.push(e.placeholder);
     for (const e of document.querySelectorAll("select"))
-      if (visible(e)) texts.push(e.selectedOptions[0]?.textContent ?? "");
+      if (visible(e)) for (const option of e.options) texts.push(option.textContent); // every choice, open or not
     for (const text of texts) {
       const left = text.replace(pattern, " ").replace(/[a-z_]+(?:[_-][a-z]+)+/g, " "); // message and setting names are code
       for (const word of left.match(/[A-Za-z]{2,}/g) ?? []) out.add(`${word} (in "${text.trim().slice(0, 60)}")`);

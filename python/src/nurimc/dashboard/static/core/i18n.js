@@ -82,7 +82,14 @@ export function setLanguage(lang, { remember = true } = {}) {
   applyTranslations();
   for (const listener of listeners) listener(current);
 }
-export const onLanguage = (listener) => listeners.push(listener);
+/** Call `listener(lang)` after every language switch; returns a function that stops it. */
+export function onLanguage(listener) {
+  listeners.push(listener);
+  return () => {
+    const i = listeners.indexOf(listener);
+    if (i >= 0) listeners.splice(i, 1);
+  };
+}
 
 export function startLanguage() {
   let remembered = null;

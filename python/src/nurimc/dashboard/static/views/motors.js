@@ -62,6 +62,7 @@ export function setMotors(motors) {
   const wanted = new Set(motors.map((m) => m.id));
   for (const [id, motor] of dashboard.motors) {
     if (!wanted.has(id)) {
+      motor.forget();
       motor.plot.destroy();
       motor.card.remove();
       dashboard.motors.delete(id);
@@ -103,6 +104,7 @@ function makeCard(info) {
   const card = build("div", { className: "card", id: `motor-${id}` });
   card.dataset.id = id;
   const readout = build("div", { className: "readout" });
+  const unsubscribe = []; // language listeners of this card, ended when the card goes
   const field = (name, labelKey, unit, titleKey, params) => {
     const value = build("b", { className: name, textContent: "–" });
     const label = build("span", { className: "label" });
@@ -112,7 +114,7 @@ function makeCard(info) {
       if (titleKey) box.title = t(titleKey, params);
     };
     texts();
-    onLanguage(texts);
+    unsubscribe.push(onLanguage(texts));
     readout.append(box);
     return value;
   };
@@ -292,11 +294,15 @@ function makeCard(info) {
     motor.shownState = null; // re-say the badge
   };
   controlTexts();
-  onLanguage(() => {
-    if (!dashboard.motors.has(id) || dashboard.motors.get(id) !== motor) return;
-    controlTexts();
-    buildPlot();
-  });
+  unsubscribe.push(
+    onLanguage(() => {
+      controlTexts();
+      buildPlot();
+    }),
+  );
+  motor.forget = () => {
+    for (const stop of unsubscribe) stop();
+  };
   return motor;
 }
 

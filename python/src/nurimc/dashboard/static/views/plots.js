@@ -74,7 +74,13 @@ export function makePlot(box, { series, height = 260, xLabel, onZoom, onReset })
       cursor: { drag: { x: true, y: false } },
       scales,
       series: [
-        { label: t("plot.t"), value: (u, v) => (v == null ? "–" : `${num(v, 2)} s`) },
+        {
+          label: t("plot.t"),
+          value: (u, v, sidx, idx) => {
+            const time = idx == null ? lastValue(u.data[0] ?? []) : v; // the latest, like the other series
+            return time == null ? "–" : `${num(time, 2)} s`;
+          },
+        },
         ...series.map((s) => ({
           label: s.label,
           scale: UNIT_SCALES[s.unit] ?? s.unit,

@@ -11,6 +11,9 @@ const RAW_ROWS = 500; // rows shown (all kept frames are exported)
 const KEEP = 20000;
 let dirty = false;
 
+/** A message's name in the page's language (the vendor's words); its protocol name is shown beside it as code. */
+const messageLabel = (name) => t(`message.${name}`);
+
 const filters = () => ({
   id: $("#raw-id").value,
   message: $("#raw-message").value,
@@ -25,10 +28,15 @@ function fillMessages() {
   const names = [...new Set(dashboard.frames.map((f) => f.name).filter(Boolean))].sort();
   if (chosen && !names.includes(chosen)) names.push(chosen);
   const same = select.options.length === names.length + 1 && names.every((n, i) => select.options[i + 1].value === n);
-  if (same && select.options[0].textContent === t("raw.anyMessage")) return;
+  if (
+    same &&
+    select.options[0].textContent === t("raw.anyMessage") &&
+    select.options[names.length]?.textContent === messageLabel(names.at(-1))
+  )
+    return;
   select.replaceChildren(
     build("option", { value: "", textContent: t("raw.anyMessage") }),
-    ...names.map((n) => build("option", { value: n, textContent: n })),
+    ...names.map((n) => build("option", { value: n, textContent: messageLabel(n) })),
   );
   select.value = chosen;
 }
@@ -50,7 +58,7 @@ function render() {
         build("td", { textContent: num(f.t, 4) }),
         build("td", { textContent: f.dir === "tx" ? t("raw.tx") : t("raw.rx") }),
         build("td", { textContent: f.id ?? "" }),
-        build("td", {}, build("code", { textContent: f.name })),
+        build("td", {}, `${messageLabel(f.name)} `, build("code", { textContent: f.name })),
         build("td", {}, build("code", { textContent: JSON.stringify(f.fields) })),
         build("td", {}, build("code", { textContent: f.hex })),
       ),
