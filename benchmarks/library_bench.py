@@ -7,9 +7,10 @@
 3. Control cycle: 8 motors at 1 Mbps with wire timing, command all + read all, against the
    wire-limited maximum (goal: >= 0.8 of it); sequential reads and one staggered broadcast read.
 4. The cost of a failure: the same broadcast cycle with 3 % of answers missed (each miss
-   leaves an answer owed, waited out by a quiet period before that motor is asked again,
+   leaves an answer owed, ruled out by a fence request before that motor is asked again,
    docs/protocol.md "Stale answers"), with the default late-answer bound and a short one;
    and single reads at 1 Mbps: the read after a lost answer against an ordinary read.
+   (benchmarks/wire_bench.py measures lost and late answers and discovery against the wire.)
 5. Issue 10's "done when", checked from outside with the public API: release() then at once
    move_to/run/hold on `nurimc sim --eeprom-ms 150`; 200 reads with 30 % of answers 60 ms late
    (sim:// URL); 300 broadcast reads of 8 motors at 1 Mbps with 3 % of answers missed.

@@ -38,7 +38,8 @@ from typing import Any
 
 from nurimc import Bus, Group, MotorState, NurimcError
 from nurimc.client.clock import VirtualClock
-from nurimc.discovery import Progress, RateSkipped, discover
+from nurimc.discovery import RateSkipped, discover
+from nurimc.multiturn import WRAP_DEGREES
 from nurimc.protocol import BAUD_RATES, DEVICE_DEFAULTS
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.sim.port import SimSerial
@@ -65,6 +66,11 @@ def wire_limits(group: Group, commands: list[Any], slot: int) -> dict[str, float
     return {"broadcast": broadcast, "sequential": sequential}
 
 
+def unwrapped(reported: float, near: float) -> float:
+    """The reported (wrapping, 655.36 deg) position on the turn of the continuous angle `near`."""
+    return reported + round((near - reported) / WRAP_DEGREES) * WRAP_DEGREES
+
+
 def true_angles(sim: SimBus) -> dict[int, float]:
     with sim.lock:
         out = {}
@@ -74,7 +80,9 @@ def true_angles(sim: SimBus) -> dict[int, float]:
         return out
 
 
-def cycles(miss: float, virtual: bool, seconds: float, delay_ms: float = 0.0, delay_rate: float = 1.0) -> dict[str, Any]:
+def cycles(
+    miss: float, virtual: bool, seconds: float, delay_ms: float = 0.0, delay_rate: float = 1.0
+) -> dict[str, Any]:
     faults = FaultConfig(miss_rate=miss, delay_ms=delay_ms, delay_rate=delay_rate)
     clock = VirtualClock() if virtual else None
     sim = SimBus(wire_timing=True, seed=7, clock=clock, eeprom_time=0.02)
@@ -106,7 +114,7 @@ def cycles(miss: float, virtual: bool, seconds: float, delay_ms: float = 0.0, de
                     errors += 1
                     continue
                 low, high = sorted((before[device_id], after[device_id]))
-                stale += not low - 0.1 <= state.device_position <= high + 0.1
+                stale += not low - 0.1 <= unwrapped(state.device_position, low) <= high + 0.1
             done += 1
         rate = done / (now() - start)
         out[name] = {
@@ -141,8 +149,13 @@ def late_single_reads(reads: int) -> dict[str, Any]:
             failed += 1
             continue
         after = true_angles(sim)[1]
-        stale += not before - 0.1 <= state.device_position <= after + 0.1
-    result = {"reads": reads, "stale_values": stale, "failed_reads": failed, "answers_late": sim.faults.counts["delayed"]}
+        stale += not before - 0.1 <= unwrapped(state.device_position, before) <= after + 0.1
+    result = {
+        "reads": reads,
+        "stale_values": stale,
+        "failed_reads": failed,
+        "answers_late": sim.faults.counts["delayed"],
+    }
     bus.close()
     sim.close()
     return result
@@ -203,7 +216,9 @@ def refused_rates() -> dict[str, Any]:
     port.open()
     bus = Bus(SerialTransport(port, "/dev/ttyUSB-picky", latency=0.0))
     notes: list[str] = []
-    found = bus.run(discover(bus.core), on_note=lambda e: notes.append(e.reason) if isinstance(e, RateSkipped) else None)
+    found = bus.run(
+        discover(bus.core), on_note=lambda e: notes.append(e.reason) if isinstance(e, RateSkipped) else None
+    )
     bus.close()
     sim.close()
     return {"found": [(f.id, f.baudrate) for f in found], "notes": notes, "scan_went_on": len(found) == 2}

@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import pytest
 
-from nurimc import AsyncBus, Bus, PortError
+from nurimc import AsyncBus, Bus, NurimcError, PortError
 from nurimc.client.actions import Procedure, Send, Wait
 from nurimc.client.aio import drive_async
 from nurimc.client.clock import REAL_CLOCK, Clock, VirtualClock
@@ -256,3 +256,25 @@ def test_ctrl_c_in_the_middle_of_a_discovery_is_thrown_in_and_the_bus_restored()
         assert async_port.rate == START_RATE and async_bus.core.baudrate == START_RATE
 
     asyncio.run(main())
+
+
+class Babbling(ScriptedTransport):
+    """A line that never stops: every read finds bytes (noise at another rate, a babbling device)."""
+
+    def __init__(self, clock: VirtualClock) -> None:
+        super().__init__(lambda data: b"")
+        self.clock = clock
+
+    def read(self, max_bytes: int, timeout: float) -> bytes:
+        self.clock.sleep(min(timeout, 0.0001))
+        return b"\x13"
+
+
+def test_a_line_that_never_stops_does_not_keep_a_late_read_going() -> None:
+    clock = VirtualClock()
+    bus = Bus(Babbling(clock), clock=clock, retries=0)
+    start = clock.now()
+    with pytest.raises(NurimcError):
+        bus.request(RequestPing(1))
+    deadline = bus.core.timing.answer_deadline(6, 6, 9600, None)
+    assert clock.now() - start < deadline + 0.02  # the deadline holds, babbling or not

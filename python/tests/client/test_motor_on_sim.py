@@ -13,7 +13,7 @@ from nurimc import ConfirmationRequired, CorruptedAnswer, Group, IdInUse, NoAnsw
 from nurimc import config as cfg
 from nurimc.client.log import replay
 from nurimc.discovery import Progress, discover
-from nurimc.protocol import FieldRangeError, PositionFeedback, RequestPosition
+from nurimc.protocol import BAUD_RATES, FieldRangeError, PositionFeedback, RequestPosition
 from nurimc.settings import SETTINGS
 from nurimc.sim import FaultConfig
 
@@ -127,6 +127,48 @@ def test_discovery_walks_ids_when_answers_collide() -> None:
     assert any(e.walking_id is not None for e in events)  # it had to walk the IDs
     bus.close()
     sim.close()
+
+
+def test_controllers_sharing_a_rate_are_found_at_the_pace_of_the_wire() -> None:
+    """8 controllers at 9600 bps at unknown IDs, all 18 rates searched, on virtual time (so the
+    figure is the protocol's, not this host's): within 1.5x the wire floor, and never a write.
+    The floor here is stricter than benchmarks/wire_bench.py's: per walked ID a request plus the
+    wait in which an answer would have begun, and per other rate a broadcast ping plus that wait
+    at the controllers' default response time (not the longest one a controller may have)."""
+    ids = [3, 17, 40, 41, 99, 150, 201, 254]
+    sim, bus = sim_bus(ids, wire_timing=True)
+    bus.baudrate = 115200
+    sent: list[bytes] = []
+    bus.add_listener(
+        type(
+            "Tx",
+            (),
+            {"record": lambda self, d, data: sent.append(data) if d == "tx" else None, "close": lambda self: None},
+        )()
+    )
+    start = bus.clock.now()
+    found = bus.run(discover(bus.core))
+    seconds = bus.clock.now() - start
+    assert [(f.id, f.baudrate) for f in found] == [(i, 9600) for i in ids]
+    char = {r: 10 / r for r in BAUD_RATES}
+    response = 100e-6  # the controllers' (default) response time
+    floor = 255 * (6 * char[9600] + response + char[9600]) + len(ids) * 6 * char[9600]
+    floor += sum(6 * char[r] + response + char[r] for r in BAUD_RATES if r != 9600)
+    assert seconds <= 1.5 * floor, (seconds, floor)
+    assert len(sent) > 255  # the walk went out on the wire ...
+    assert {mode for data in sent for mode in frame_modes(data)} <= {0xA0, 0xCD}  # ... pings and firmware requests only
+    bus.close()
+    sim.close()
+
+
+def frame_modes(data: bytes) -> list[int]:
+    """The mode byte of each frame in `data` (FF FE id length checksum mode ...)."""
+    modes, i = [], 0
+    while i < len(data):
+        assert data[i : i + 2] == b"\xff\xfe"
+        modes.append(data[i + 5])
+        i += data[i + 3] + 4
+    return modes
 
 
 def test_duplicate_ids_are_reported_as_corrupted_not_misread() -> None:

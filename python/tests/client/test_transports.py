@@ -15,6 +15,7 @@ from nurimc.transport.latency import estimate_latency
 from nurimc.transport.serial_transport import _port_error
 
 
+@pytest.mark.realtime
 def test_every_rate_through_a_pseudo_terminal() -> None:
     sim = SimBus()
     for index, rate in enumerate(BAUD_RATES):
@@ -53,6 +54,7 @@ def test_motion_over_the_pseudo_terminal() -> None:
         sim.close()
 
 
+@pytest.mark.realtime
 def test_socket_url() -> None:
     sim = SimBus()
     sim.add_controller(id=1)

@@ -18,9 +18,13 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
 import serial
 
 from .wirehelp import ask, command, u16
+
+# a `nurimc sim` process killed with SIGKILL: end to end, on the real clock
+pytestmark = pytest.mark.realtime
 
 TRIALS = 6
 

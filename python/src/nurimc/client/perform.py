@@ -20,6 +20,8 @@ from .log import FrameRecorder
 
 #: how long a read that starts after its deadline still looks for bytes that already came
 LATE_READ = 0.0005
+#: late reads go on while they find bytes, for at most this long (what already came is read at once)
+LATE_READS_FOR = 0.005
 
 T = TypeVar("T")
 
@@ -59,6 +61,7 @@ class Performer:
         self.clock: Clock = clock or REAL_CLOCK
         self._late_read_for: float | None = None
         self._late_read_found = False
+        self._late_reads_began = 0.0
 
     def read_timeout(self, until: float) -> float | None:
         """Seconds to wait in a read ending at `until`, or None: no read, time is up.
@@ -66,12 +69,17 @@ class Performer:
         Once `until` has passed, short reads still take what arrived meanwhile (as long as each
         finds bytes: several answers may be waiting), so a host that woke late (loaded) loses
         nothing; the first late read that finds nothing ends the wait."""
-        remaining = until - self.clock.now()
+        now = self.clock.now()
+        remaining = until - now
         if remaining > 0:
             return remaining
-        if self._late_read_for == until and not self._late_read_found:
-            return None
-        self._late_read_for = until
+        if self._late_read_for == until:
+            # bytes that already arrived are taken at once; a line that keeps babbling is not
+            # read past LATE_READS_FOR after the first late read
+            if not self._late_read_found or now - self._late_reads_began >= LATE_READS_FOR:
+                return None
+        else:
+            self._late_read_for, self._late_reads_began = until, now
         self._late_read_found = False
         return LATE_READ
 
