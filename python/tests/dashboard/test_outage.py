@@ -63,12 +63,21 @@ def ask(ws: Any, op: str, **fields: Any) -> dict[str, Any]:
     return wait_for(ws, lambda m: m.get("type") == "reply" and m.get("req") == op, f"reply to {op}")
 
 
+def discover(ws: Any, ids: list[int]) -> None:
+    """Find the motors; asked again if one is missed (the proxy's extra hop makes answers late on a
+    loaded host: discovery itself is tested elsewhere)."""
+    for _ in range(3):
+        found = ask(ws, "discover", rates=[BAUD])
+        if [m["id"] for m in found["result"]["known"]] == ids:
+            return
+    raise AssertionError(f"discovery found {found}")
+
+
 def test_an_estop_during_an_outage_is_latched_and_carried_out_first_on_return(console: Console) -> None:
     with console.client.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
         hello = ws.receive_json()
         assert hello["port_state"]["up"] and hello["port_state"]["reconnect"]
-        found = ask(ws, "discover", rates=[BAUD])
-        assert [m["id"] for m in found["result"]["known"]] == [1, 2], found
+        discover(ws, [1, 2])
         assert ask(ws, "run", id=1, rpm=30)["ok"]
         console.proxy.cut()
         lost = wait_for(ws, lambda m: m.get("type") == "port", "the port event")
@@ -100,7 +109,7 @@ def test_an_estop_during_an_outage_is_latched_and_carried_out_first_on_return(co
 def test_a_motor_turning_by_run_is_stopped_first_when_the_port_returns(console: Console) -> None:
     with console.client.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
         ws.receive_json()
-        assert ask(ws, "discover", rates=[BAUD])["ok"]
+        discover(ws, [1, 2])
         assert ask(ws, "run", id=2, rpm=30)["ok"]
         moved = ask(ws, "move", id=1, degrees=90, rpm=30)
         assert moved["ok"], moved  # a move ends by itself: left alone
@@ -117,7 +126,7 @@ def test_a_motor_turning_by_run_is_stopped_first_when_the_port_returns(console: 
 def test_nothing_asked_during_the_outage_is_sent_after_it(console: Console) -> None:
     with console.client.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
         ws.receive_json()
-        assert ask(ws, "discover", rates=[BAUD])["ok"]
+        discover(ws, [1, 2])
         console.proxy.cut()
         wait_for(ws, lambda m: m.get("type") == "port", "the port event")
         for rpm in (10, 20, 30):
@@ -131,7 +140,7 @@ def test_nothing_asked_during_the_outage_is_sent_after_it(console: Console) -> N
 def test_the_page_can_reopen_the_lost_port_and_is_told_why_not_while_it_is_gone(console: Console) -> None:
     with console.client.websocket_connect("/ws", headers=SAME_ORIGIN) as ws:
         ws.receive_json()
-        assert ask(ws, "discover", rates=[BAUD])["ok"]
+        discover(ws, [1, 2])
         console.proxy.cut()
         wait_for(ws, lambda m: m.get("type") == "port", "the port event")
         refused = ask(ws, "open_bus", port=console.proxy.url, baudrate=BAUD)
@@ -180,7 +189,7 @@ def test_the_stop_is_received_first_and_wins_while_pages_flood(tmp_path: Path) -
         ) as client:
             with client.websocket_connect("/ws", headers=SAME_ORIGIN) as page:
                 page.receive_json()
-                assert ask(page, "discover", rates=[BAUD])["ok"]
+                discover(page, [1, 2])
                 floods = [client.websocket_connect("/ws", headers=SAME_ORIGIN) for _ in range(5)]
                 sockets = [f.__enter__() for f in floods]
                 try:

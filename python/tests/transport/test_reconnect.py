@@ -8,12 +8,13 @@ import threading
 from pathlib import Path
 
 import pytest
+import serial
 
 from nurimc import Bus
 from nurimc.client.aio import AsyncBus
 from nurimc.errors import PortError, PortLost
 from nurimc.protocol import BROADCAST_ID, SetControl
-from nurimc.transport.reconnect import PortEvent, ReconnectingTransport, by_id_names
+from nurimc.transport.reconnect import PortEvent, ReconnectingTransport, by_id_names, is_loss
 
 from .outage import BAUD, cuttable_bus, frames_after_cut
 
@@ -204,3 +205,23 @@ def test_by_id_names_are_found_for_a_device(tmp_path: Path) -> None:
     (by_id / "usb-other").symlink_to(tmp_path / "ttyUSB4")
     assert by_id_names(str(device), by_id) == [str(by_id / "usb-FTDI_FT232R_A1-if00-port0")]
     assert by_id_names("socket://127.0.0.1:1", by_id) == []
+
+
+@pytest.mark.parametrize(
+    ("cause", "lost"),
+    [
+        (OSError(5, "Input/output error"), True),
+        (OSError(6, "No such device or address"), True),
+        (OSError(32, "Broken pipe"), True),
+        (OSError(2, "No such file or directory"), True),
+        (ConnectionResetError(104, "Connection reset by peer"), True),
+        (serial.SerialException("device reports readiness to read but returned no data"), True),
+        (ValueError("Invalid baud rate: 123"), False),
+        (OSError(22, "Invalid argument"), False),
+    ],
+)
+def test_which_failures_mean_the_port_is_gone(cause: Exception, lost: bool) -> None:
+    try:
+        raise PortError(f"cannot use port x: {cause}") from cause
+    except PortError as error:
+        assert is_loss(error) is lost
