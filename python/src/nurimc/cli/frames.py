@@ -11,7 +11,7 @@ import typer
 
 from ..errors import InputError
 from ..inputs import field_value, integer, json_document, number, show
-from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, decode, make
+from ..protocol import ALL_LINES, SPECS, DecodeError, FieldSpec, Line, Message, StreamParser, UnknownLineError, line
 from .common import STOP, Number, emit, fail, open_bus, options, table
 
 #: A traffic log line longer than this is not one we wrote (a line holds one read or write).
@@ -47,19 +47,32 @@ def _hex_arguments(args: list[str]) -> bytes:
         fail("give hex bytes like 'FF FE 00 02 5C A1' (or - for stdin, or a file of hex)")
 
 
+LINE_HELP = "Product line whose mode table reads the frame: " + ", ".join(ALL_LINES) + " (docs/protocol.md)."
+
+
+def _line(name: str) -> Line:
+    try:
+        return line(name)
+    except UnknownLineError as error:
+        fail(f"--line: {error}")
+
+
 def decode_(
-    ctx: typer.Context, hex_bytes: list[str] = typer.Argument(..., help="Hex bytes, '-' for stdin, or a file.")
+    ctx: typer.Context,
+    hex_bytes: list[str] = typer.Argument(..., help="Hex bytes, '-' for stdin, or a file."),
+    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
 ) -> None:
     """Decode frames: fields in physical units, or what is wrong.
 
-    Example: nurimc decode FF FE 00 07 76 01 00 46 50 03 E8
+    Example: nurimc decode FF FE 00 07 76 01 00 46 50 03 E8   (an RSA's frame: --line rsa)
     """
     o = options(ctx)
+    product_line = _line(line_name)
     data = _hex_arguments(hex_bytes)
     try:
-        frames, problems = [decode(data)], []
+        frames, problems = [product_line.decode(data)], []
     except DecodeError as error:
-        parser = StreamParser()
+        parser = StreamParser(line=product_line.key)
         frames = parser.feed(data) + parser.finish()
         problems = [f"{error.kind}: {error}"] if not frames else []
         if frames and parser.stats.dropped_bytes:
@@ -93,15 +106,20 @@ def encode(
         None, help="field=value: wire integers or with a unit (180deg, 100rpm, 2s, 8A)."
     ),
     device_id: int = typer.Option(0, "--to", help=f"ID to address ({TO.allowed}; 255 = broadcast).", parser=TO),
+    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
 ) -> None:
     """Build a frame with the right checksum.
 
     Example: nurimc encode position_speed direction=0 position=180deg speed=100rpm --to 0
     """
     o = options(ctx)
-    spec = SPECS.get(message)
-    if spec is None:
-        fail(f"unknown message {message!r}; messages: {', '.join(SPECS)}")
+    product_line = _line(line_name)
+    cls = product_line.classes.get(message)
+    if cls is None:
+        fail(
+            f"unknown message {message!r} in the {product_line.title} line; messages: {', '.join(product_line.classes)}"
+        )
+    spec = cls.SPEC
     fields: dict[str, int] = {}
     for item in values or []:
         name, _, text = item.partition("=")
@@ -112,7 +130,7 @@ def encode(
             fields[name] = _wire_value(f"{message}.{name}", field, text)
         except InputError as error:
             fail(str(error))
-    frame = make(message, device_id, **fields).encode()
+    frame = product_line.make(message, device_id, **fields).encode()
     emit(o, {"hex": frame.hex(), "message": message, "id": device_id, "fields": fields}, frame.hex(" ").upper())
 
 
