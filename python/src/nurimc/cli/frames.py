@@ -139,13 +139,14 @@ def sniff(
     duration: float = typer.Option(
         0, help=f"Stop after this many seconds ({DURATION.allowed}; 0: until Ctrl+C).", parser=DURATION
     ),
+    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
 ) -> None:
     """Listen without sending and decode everything on the bus, with timestamps.
 
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 sniff
     """
     o = options(ctx)
-    parser, seen = StreamParser(), []
+    parser, seen = StreamParser(line=_line(line_name).key), []
     start = time.monotonic()
     with open_bus(o) as bus:
         try:
