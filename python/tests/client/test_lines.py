@@ -175,3 +175,17 @@ def test_the_bus_refuses_a_frame_that_means_something_else_to_the_motor() -> Non
     assert sim.controller(7).settings.control == 0
     bus.close()
     sim.close()
+
+
+def test_decode_and_encode_from_the_command_line_in_a_line() -> None:
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([NURIMC, "--json", *args], capture_output=True, text=True, timeout=60)
+
+    rsavw = run("decode", "--line", "rsavw", "FF FE 02 05 F2 D9 01 8C A0")  # the vendor reader's D9 layout
+    assert rsavw.returncode == 0, rsavw.stderr
+    (frame,) = json.loads(rsavw.stdout)["frames"]
+    assert (frame["message"], frame["fields"]) == ("absolute_position", {"direction": 1, "absolute_position": 36000})
+    sm = run("encode", "--line", "sm-cs", "set_id", "new_id=1")
+    assert json.loads(sm.stdout)["hex"] == "fffe0003f80301"
+    refused = run("encode", "--line", "sm", "set_id", "new_id=1")
+    assert refused.returncode == 2 and "unknown message 'set_id' in the SM line" in refused.stderr

@@ -12,7 +12,18 @@ import typer
 from ..errors import InputError, PortLost
 from ..inputs import UNIT_SHOWN, field_value, integer, json_document, number, show, with_unit
 from ..outage import OutageGuard, stderr_line
-from ..protocol import SPECS, DecodeError, FieldSpec, Message, StreamParser, build_frame, decode, make
+from ..protocol import (
+    ALL_LINES,
+    SPECS,
+    DecodeError,
+    FieldSpec,
+    Line,
+    Message,
+    StreamParser,
+    UnknownLineError,
+    build_frame,
+    line,
+)
 from .common import STOP, Number, emit, fail, note, open_bus, options, table
 
 BROADCAST = 0xFF
@@ -54,19 +65,32 @@ def _hex_arguments(args: list[str]) -> bytes:
         fail("give hex bytes like 'FF FE 00 02 5C A1' (or - for stdin, or a file of hex)")
 
 
+LINE_HELP = "Product line whose mode table reads the frame: " + ", ".join(ALL_LINES) + " (docs/protocol.md)."
+
+
+def _line(name: str) -> Line:
+    try:
+        return line(name)
+    except UnknownLineError as error:
+        fail(f"--line: {error}")
+
+
 def decode_(
-    ctx: typer.Context, hex_bytes: list[str] = typer.Argument(..., help="Hex bytes, '-' for stdin, or a file.")
+    ctx: typer.Context,
+    hex_bytes: list[str] = typer.Argument(..., help="Hex bytes, '-' for stdin, or a file."),
+    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
 ) -> None:
     """Decode frames: fields in physical units, or what is wrong.
 
-    Example: nurimc decode FF FE 00 07 76 01 00 46 50 03 E8
+    Example: nurimc decode FF FE 00 07 76 01 00 46 50 03 E8   (an RSA's frame: --line rsa)
     """
     o = options(ctx)
+    product_line = _line(line_name)
     data = _hex_arguments(hex_bytes)
     try:
-        frames, problems = [decode(data)], []
+        frames, problems = [product_line.decode(data)], []
     except DecodeError as error:
-        parser = StreamParser()
+        parser = StreamParser(line=product_line.key)
         frames = parser.feed(data) + parser.finish()
         problems = [f"{error.kind}: {error}"] if not frames else []
         if frames and parser.stats.dropped_bytes:
@@ -102,15 +126,20 @@ def encode(
         "2s, 8A) is a physical value, as `set` takes it.",
     ),
     device_id: int = typer.Option(0, "--to", help=f"ID to address ({TO.allowed}; 255 = broadcast).", parser=TO),
+    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
 ) -> None:
     """Build a frame with the right checksum.
 
     Example: nurimc encode position_speed direction=0 position=180deg speed=100rpm --to 0
     """
     o = options(ctx)
-    spec = SPECS.get(message)
-    if spec is None:
-        fail(f"unknown message {message!r}; messages: {', '.join(SPECS)}")
+    product_line = _line(line_name)
+    cls = product_line.classes.get(message)
+    if cls is None:
+        fail(
+            f"unknown message {message!r} in the {product_line.title} line; messages: {', '.join(product_line.classes)}"
+        )
+    spec = cls.SPEC
     fields: dict[str, int] = {}
     for item in values or []:
         name, _, text = item.partition("=")
@@ -121,7 +150,7 @@ def encode(
             fields[name] = _wire_value(f"{message}.{name}", field, text)
         except InputError as error:
             fail(str(error))
-    built = make(message, device_id if device_id != BROADCAST or spec.max_id == BROADCAST else 0, **fields)
+    built = product_line.make(message, device_id if device_id != BROADCAST or spec.max_id == BROADCAST else 0, **fields)
     if device_id == BROADCAST and spec.max_id != BROADCAST:
         # a request to every controller: outside §17, yet every controller answers it, each after
         # its response time (discovery and the staggered read send it; docs/protocol.md, Broadcast)
@@ -137,13 +166,14 @@ def sniff(
     duration: float = typer.Option(
         0, help=f"Stop after this many seconds ({DURATION.allowed}; 0: until Ctrl+C).", parser=DURATION
     ),
+    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
 ) -> None:
     """Listen without sending and decode everything on the bus, with timestamps.
 
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 sniff
     """
     o = options(ctx)
-    parser, seen = StreamParser(), []
+    parser, seen = StreamParser(line=_line(line_name).key), []
     start = time.monotonic()
     with open_bus(o, reconnect=True) as bus:
         outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
