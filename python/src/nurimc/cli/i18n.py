@@ -41,11 +41,6 @@ def catalog() -> gettext.NullTranslations:
     return gettext.translation(DOMAIN, LOCALE_DIR, fallback=True)
 
 
-def language() -> str:
-    """'ko' or 'en': the language of the catalog in use (for callers that format by language)."""
-    return catalog().info().get("language", "en") or "en"
-
-
 def _(message: str) -> str:
     """A fixed text in the language in use."""
     return catalog().gettext(message) if message else message
