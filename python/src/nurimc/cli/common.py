@@ -239,10 +239,16 @@ def emit(o: Options, data: Any, table: rich.table.Table | str | None = None) -> 
     elif isinstance(table, str):
         out.print(tr(table), markup=False, soft_wrap=True)
     elif table is not None:
-        if table.title:  # a line of its own: as a table title it would wrap to the columns' width
-            out.print(tr(str(table.title)), markup=False, soft_wrap=True)
-            table.title = None
-        out.print(table)
+        show_table(table)
+
+
+def show_table(table: rich.table.Table) -> None:
+    """A table on stdout, its title a line of its own (as a table title it would wrap to the
+    columns' width: a long path broken over two lines)."""
+    if table.title:
+        out.print(tr(str(table.title)), markup=False, soft_wrap=True)
+        table.title = None
+    out.print(table)
 
 
 MARKED = re.compile(r"(\[[a-z ]+\])(.*)(\[/\])\Z", re.DOTALL)
@@ -266,7 +272,7 @@ class Table(rich.table.Table):
 
 
 def table(title: str | None, *columns: str) -> Table:
-    t = Table(title=title, title_justify="left")
+    t = Table(title=tr(title) if title else None, title_justify="left")
     for column in columns:
         t.add_column(tr(column))
     return t
