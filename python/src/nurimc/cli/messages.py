@@ -106,6 +106,7 @@ PATTERNS: tuple[str, ...] = (
     "released all motors. Bus statistics: {stats}",
     "Next, a simulator that keeps running (Ctrl+C ends it): {command}",
     "and, in another terminal from this folder: {command}",
+    "{message} to 255 (broadcast): every controller answers, each after its response time",
     "{message} (see: {command} --help)",
     "No such option: {name} (Possible options: {options})",
     "No such option: {name} Did you mean {option}?",
