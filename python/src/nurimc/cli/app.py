@@ -231,8 +231,8 @@ def main(args: list[str] | None = None) -> None:
     if previous is signal.SIG_DFL:
         signal.signal(signal.SIGTERM, _on_sigterm)
     code = EXIT_OK
-    language = activated()
-    language.__enter__()
+    language = contextlib.ExitStack()  # click's own words in the language in use, for this call
+    language.enter_context(activated())
     try:
         result = _command().main(args=args, prog_name="nurimc", standalone_mode=False)
         code = result if isinstance(result, int) else EXIT_OK
@@ -248,7 +248,7 @@ def main(args: list[str] | None = None) -> None:
     except Exception as error:
         code = _report(error, verbose)
     finally:
-        language.__exit__(None, None, None)
+        language.close()
         with contextlib.suppress(OSError, AttributeError):
             sys.stdout.flush()
         if previous is signal.SIG_DFL:

@@ -20,7 +20,8 @@ from ..discovery import Progress as ScanProgress
 from ..discovery import discover
 from ..sim import SimBus
 from ..transport import SerialTransport
-from .common import EXIT_DEVICE, Number, fail, out, table
+from .common import EXIT_DEVICE, Number, fail, out, show_table, table
+from .i18n import tr
 
 DEMO_MOTORS = {1: 115200, 2: 115200, 3: 57600}  # ID -> rate: the demo does not know them in advance
 TARGETS = {1: 90.0, 2: -180.0, 3: 360.0}
@@ -40,15 +41,16 @@ def demo(
     for device_id, rate in DEMO_MOTORS.items():
         sim.add_controller(id=device_id, baud=rate)
     bus = Bus(SerialTransport(sim.open_serial(baudrate=9600), "sim://", latency=0.001))
-    out.print("[bold]nurimc demo[/]: a simulated RS485 bus with 3 controllers at rates the host does not know.")
+    intro = tr("a simulated RS485 bus with 3 controllers at rates the host does not know.")
+    out.print(f"[bold]nurimc demo[/]: {intro}")
     start = time.monotonic()
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
     with Progress(*columns, console=out, transient=True) as bar:
-        task = bar.add_task("scanning", total=18)
+        task = bar.add_task(tr("scanning"), total=18)
 
         def show(event: object) -> None:
             if isinstance(event, ScanProgress):
-                bar.update(task, completed=event.rate_index + 1, description=f"scanning {event.rate:>7} bps")
+                bar.update(task, completed=event.rate_index + 1, description=tr(f"scanning {event.rate:>7} bps"))
 
         found = bus.run(discover(bus.core), on_note=show)
     found_table = table(
@@ -59,7 +61,7 @@ def demo(
     )
     for f in found:
         found_table.add_row(str(f.id), str(f.baudrate), str(f.firmware))
-    out.print(found_table)
+    show_table(found_table)
 
     motors = []
     for f in found:
@@ -68,7 +70,7 @@ def demo(
         motor.set("resolution", 1024)  # a 1024-pulse encoder; written and read back
         motors.append((f.baudrate, motor))
         motor.move_to(TARGETS.get(f.id, 45.0), rpm=120)
-        out.print(f"ID {f.id}: resolution set to 1024 (verified), moving to {TARGETS.get(f.id, 45.0)}° at 120 RPM")
+        out.print(tr(f"ID {f.id}: resolution set to 1024 (verified), moving to {TARGETS.get(f.id, 45.0)}° at 120 RPM"))
 
     def render() -> Table:
         rows = table("live state", "ID", "target °", "position °", "speed RPM", "current A")
@@ -93,16 +95,15 @@ def demo(
         bus.baudrate = rate
         motor.release()
     out.print()
-    out.print(f"released all motors. Bus statistics: {bus.stats.as_dict()}")
+    out.print(tr(f"released all motors. Bus statistics: {bus.stats.as_dict()}"), markup=False)
     me = invoked_as()
     # soft_wrap: a command is never broken over two lines (it would not work as printed)
     out.print(
-        f"Next, a simulator that keeps running (Ctrl+C ends it): [bold]{me} sim --link /tmp/nurimc0 --ids 1,2[/]",
+        tr(f"Next, a simulator that keeps running (Ctrl+C ends it): [bold]{me} sim --link /tmp/nurimc0 --ids 1,2[/]"),
         soft_wrap=True,
     )
-    out.print(
-        f"and, in another terminal from this folder: [bold]{me} --port /tmp/nurimc0 --id 1 status[/]", soft_wrap=True
-    )
+    then = tr(f"and, in another terminal from this folder: [bold]{me} --port /tmp/nurimc0 --id 1 status[/]")
+    out.print(then, soft_wrap=True)
     bus.close()
     sim.close()
 

@@ -4,8 +4,11 @@ Standard gettext: the catalogs are `locale/<lang>/LC_MESSAGES/nurimc.po`, compil
 (committed beside them; `scripts/catalogs.py` compiles them and a test checks they are
 current). The language comes from LANGUAGE, LC_ALL, LC_MESSAGES and LANG, read by gettext
 itself from the environment, so the C library's ko_KR locale need not be generated
-(`LANG=ko_KR.UTF-8` is enough). click's own messages ("No such option", "Usage:") go through
-gettext's default function, so `activate()` points the process's text domain at ours.
+(`LANG=ko_KR.UTF-8` is enough). click's and typer's own words ("Options", "default: …") go
+through gettext's default function, so `activated()` points the process's text domain at ours
+for the duration of a call; typer's copy of click writes "Usage:" and the help option's text
+without gettext, which `translate_help` covers. Every language LANGUAGE lists is chained by
+gettext, so the `en` catalog holds each text as itself (LANGUAGE=en:ko is English).
 
 What is translated (docs/cli.md, Language):
 - help texts: the click command tree is translated as it is built (`translate_help`), keyed by
@@ -34,13 +37,8 @@ FIELD = re.compile(r"\{(\w+)\}")
 
 
 def catalog() -> gettext.NullTranslations:
-    """The catalog the environment asks for (English: no catalog, the texts as written)."""
+    """The catalog the environment asks for (none, or `en`: the texts as written)."""
     return gettext.translation(DOMAIN, LOCALE_DIR, fallback=True)
-
-
-def language() -> str:
-    """'ko' or 'en': the language of the catalog in use."""
-    return catalog().info().get("language", "en") or "en"
 
 
 def _(message: str) -> str:

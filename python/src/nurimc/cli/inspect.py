@@ -278,7 +278,7 @@ def watch(
             if o.json or out.is_terminal:
                 live = Live(render(), console=err if o.json else out, auto_refresh=False, transient=o.json)
             else:  # a file or a pipe: lines (tab-separated, a header first), not redraws of one table
-                sys.stdout.write("\t".join(WATCH_COLUMNS) + "\n")
+                sys.stdout.write("\t".join(tr(c) for c in WATCH_COLUMNS) + "\n")
                 stream()
             n = 1
             with live or contextlib.nullcontext():

@@ -100,6 +100,13 @@ PATTERNS: tuple[str, ...] = (
     "fault delay_ms = {value}: use a number of milliseconds, 0..60000",
     "{rate} bps is not a rate these controllers support; use one of {rates}",
     "cannot listen on {listen}: {reason}; pick another --listen HOST:PORT",
+    "scanning {rate} bps",
+    "discovery: {n} controllers in {seconds} s (the vendor's tool: 20-30 minutes)",
+    "ID {id}: resolution set to 1024 (verified), moving to {degrees}° at 120 RPM",
+    "released all motors. Bus statistics: {stats}",
+    "Next, a simulator that keeps running (Ctrl+C ends it): {command}",
+    "and, in another terminal from this folder: {command}",
+    "{message} to 255 (broadcast): every controller answers, each after its response time",
     "{message} (see: {command} --help)",
     "No such option: {name} (Possible options: {options})",
     "No such option: {name} Did you mean {option}?",
@@ -145,6 +152,9 @@ PATTERNS: tuple[str, ...] = (
 
 MESSAGES: tuple[str, ...] = (
     "no controllers: give --ids or --motor",
+    "a simulated RS485 bus with 3 controllers at rates the host does not know.",
+    "live state",
+    "target °",
     "the console's plotting library (uPlot, from npm) is not installed next to the page: run `bash scripts/dashboard-assets.sh` (or `make dashboard`) in the nurimc source tree",
     "no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT",
     "this command needs exactly one controller: give --id N",

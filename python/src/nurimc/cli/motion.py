@@ -6,6 +6,8 @@ from typing import Any
 
 import typer
 
+from ..errors import InputError
+from ..inputs import number
 from ..protocol.host import LIMITS
 from .common import InputBadParameter, Number, Options, emit, fail, motor_for, one_id, open_bus, options
 
@@ -29,11 +31,15 @@ def _signed_rpm(value: Any) -> float:
     which the wire would round to 0, is refused rather than taken as a stop)."""
     if isinstance(value, str) and value.strip() in ("0", "-0", "+0", "0.0", "-0.0", "+0.0"):
         return 0.0
-    rpm: float = SIGNED_RPM(value)
-    if abs(rpm) < RPM_MIN:
+    try:
+        exact = number(value, "rpm", -RPM_MAX, RPM_MAX, "RPM")  # checked before rounding: no note first
+    except InputError as error:
+        raise InputBadParameter(str(error)) from None
+    if round(abs(exact), 1) < RPM_MIN:
         raise InputBadParameter(
             f"rpm: {value} RPM is too slow for the wire; give {RPM_MIN}..{RPM_MAX} RPM either way, or 0 to stop"
         )
+    rpm: float = SIGNED_RPM(value)
     return rpm
 
 
