@@ -294,6 +294,9 @@ test("a setting change is written, verified and shown", async () => {
     const row = page.locator("#setting-position-kp");
     await row.locator("input").fill("77");
     await row.getByRole("button", { name: "Write" }).click();
+    // the motor's badge says it is busy writing its settings, then no longer
+    await page.waitForFunction(() => document.querySelector("#motor-2").dataset.state === "busy");
+    await page.waitForFunction(() => !["busy", undefined].includes(document.querySelector("#motor-2").dataset.state));
     await assert.doesNotReject(row.locator(".result.ok").waitFor({ timeout: 10000 }));
     assert.match(await row.locator(".result").textContent(), /verified: 77/);
     await row.locator(".value").evaluate((cell) => {

@@ -4,7 +4,7 @@
 import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { NoAnswerError } from "../src/bus/errors.js";
-import { make } from "../src/codec.js";
+import { decode, encode, make } from "../src/codec.js";
 import { HOST_TIMING } from "../src/generated/host.js";
 import { FakePort } from "./fake-port.js";
 
@@ -14,6 +14,25 @@ describe("stale answers", () => {
   it("takes its late-answer allowance from spec/host.json", () => {
     expect(HOST_TIMING.lateAnswerMs).toBeGreaterThan(0);
     expect(new Bus(new FakePort()).lateAnswerMs).toBe(HOST_TIMING.lateAnswerMs);
+  });
+
+  it("waits out an owed answer before asking that ID again (the quiet period), and drops it", async () => {
+    let asked = 0;
+    const port = new FakePort();
+    port.responder = (written) => {
+      asked += 1;
+      const answer = encode(
+        make("position_feedback", decode(written).id, { direction: 0, position: asked * 100, speed: 0, current: 0 }),
+      );
+      setTimeout(() => port.inject(answer), asked === 1 ? 30 : 1); // the first answer after its deadline
+      return null;
+    };
+    const bus = new Bus(port, fast);
+    await expect(bus.request(make("request_position", 1, {}))).rejects.toBeInstanceOf(NoAnswerError);
+    expect(bus.owedAnswers(1)?.count).toBe(1);
+    expect((await bus.request(make("request_position", 1, {}))).position).toBe(200);
+    expect(bus.stats).toMatchObject({ staleFrames: 1, quietWaits: 1, unexpectedFrames: 0 });
+    expect(bus.owedAnswers(1)).toBeUndefined();
   });
 
   it("forgets what is owed when the rate changes", async () => {

@@ -81,5 +81,7 @@ export async function ask(op, args) {
     sayError(t(`op.${op}`), error.message);
     error.reported = true;
     throw error;
+  } finally {
+    if (COMMANDS.has(op)) emit("command-done", { op, id: args?.id });
   }
 }

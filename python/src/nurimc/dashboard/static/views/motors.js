@@ -368,17 +368,20 @@ export function markStopped(control) {
     motor.card.dataset.control = value === "off" ? "off" : "unknown";
   }
 }
+// a settings write keeps its motor "busy" from the request until one busy window after the
+// reply (the EEPROM write starts when the command has gone out; spec/profiles.json busy window)
+const writes = (op, id) =>
+  op === "restore" ? [...dashboard.motors.values()] : op === "set" ? [dashboard.motors.get(id)].filter(Boolean) : [];
 on("command", ({ op, id }) => {
   const motor = dashboard.motors.get(id);
   if (motor) motor.stopped = false;
-  if (op === "set" || op === "restore") {
-    for (const m of op === "restore" ? dashboard.motors.values() : [motor].filter(Boolean)) {
-      m.busy += 1;
-      setTimeout(() => {
-        m.busy -= 1;
-      }, BUSY_WINDOW_MS); // a settings write keeps a controller busy (spec/profiles.json busy window)
-    }
-  }
+  for (const m of writes(op, id)) m.busy += 1;
+});
+on("command-done", ({ op, id }) => {
+  for (const m of writes(op, id))
+    setTimeout(() => {
+      m.busy = Math.max(0, m.busy - 1);
+    }, BUSY_WINDOW_MS);
 });
 
 /** Readings per second over the last second of samples (page clock, seconds). */
