@@ -47,8 +47,9 @@ from nurimc.client.clock import VirtualClock
 from nurimc.client.timing import MAX_RESPONSE_TIME
 from nurimc.discovery import RateSkipped, discover
 from nurimc.multiturn import WRAP_DEGREES
-from nurimc.protocol import BAUD_RATES, DEVICE_DEFAULTS
+from nurimc.protocol import BAUD_RATES, DEVICE_DEFAULTS, PositionFeedback, decode
 from nurimc.sim import FaultConfig, SimBus
+from nurimc.sim.controller import Reply
 from nurimc.sim.port import SimSerial
 from nurimc.transport import SerialTransport
 
@@ -109,6 +110,19 @@ class CycleRun:
         self.sim.faults.config = faults
         self.limits = wire_limits(self.group, self.commands, slot)
         self.tally = {name: {"cycles": 0, "seconds": 0.0, "stale": 0, "errors": 0} for name in self.limits}
+        # what each controller sent, and when it was asked (bus clock): a value is stale if it
+        # was produced for a request older than its own call (cheap enough not to slow the cycle)
+        self.produced: dict[tuple[int, int, int, int], float] = {}
+        send = self.sim._send
+
+        def record(reply: Reply) -> None:
+            answer = decode(reply.frame)
+            if isinstance(answer, PositionFeedback):
+                key = (answer.id, answer.direction, answer.position, answer.speed)
+                self.produced[key] = reply.start - reply.controller.settings.response_time * 100e-6
+            send(reply)
+
+        self.sim._send = record  # type: ignore[method-assign]
 
     def run(self, name: str, seconds: float) -> None:
         read = self.group.read_states_broadcast if name == "broadcast" else self.group.read_states
@@ -116,15 +130,15 @@ class CycleRun:
         start = now()
         while now() - start < seconds:
             self.group.command(self.commands)
-            before = true_angles(self.sim)
+            asked = self.sim.now()
             states = read()
-            after = true_angles(self.sim)
-            for device_id, state in states.items():
+            for state in states.values():
                 if not isinstance(state, MotorState):
                     tally["errors"] += 1
                     continue
-                low, high = sorted((before[device_id], after[device_id]))
-                tally["stale"] += not low - 0.1 <= unwrapped(state.device_position, low) <= high + 0.1
+                direction = 1 if state.device_position < 0 else 0
+                key = (state.id, direction, round(abs(state.device_position) * 100), round(state.speed * 10))
+                tally["stale"] += self.produced.get(key, -1.0) < asked  # an older request's answer
             tally["cycles"] += 1
         tally["seconds"] += now() - start
 
