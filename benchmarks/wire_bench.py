@@ -5,17 +5,23 @@
    real clock): command all + one staggered broadcast read, and command all + one request per
    motor, at 0, 1, 3 and 10 % of answers lost, as a fraction of the wire limit (the bytes of
    one cycle at 1 Mbps plus the motors' response times), with the count of stale values
-   (a value outside the true positions before and after its own call: must be 0).
-   The same on virtual time (no host overhead: what the protocol itself costs).
+   (a value outside the true positions before and after its own call: must be 0). The fault
+   mixes take turns in 0.25 s slices, so that a load that comes and goes (a shared host) hits
+   them all alike. The same on virtual time (no host overhead: what the protocol itself costs).
 2. 30 % of answers 60 ms late: broadcast reads and single reads, stale values (must be 0).
 3. Discovery of N = 1, 2, 8, 32 controllers all at 9600 bps at unknown IDs, one rate searched
    and all 18, against the wire floor computed from the frame sizes, the rates and the
-   controllers' documented response time (spec: device default, 1 x 100 us):
-   - a rate where several controllers answer together: every ID asked once, each request
-     followed by the shortest wait in which an answer would have started (response time plus
-     one character), plus the rest of each controller's answer (a firmware answer, 7 bytes);
-   - a rate with one controller: a broadcast ping, its answer, one firmware exchange;
-   - a rate with none: a broadcast ping plus the wait in which an answer would have started.
+   documented response times (§8: any setting up to 254 x 100 us = 25.4 ms; these
+   controllers keep the default, 1 x 100 us):
+   - a rate with none: a broadcast ping plus the wait in which any answer would have started
+     (the longest response time a controller may have, plus one character): silence proves
+     absence only then;
+   - a rate with one controller: the same wait (a second one could still answer), its answer
+     meanwhile, and one firmware exchange (the result names the firmware);
+   - a rate where several controllers answer together: a broadcast ping until the answers
+     begin (they do, garbled), then every ID asked once, each request followed by the
+     shortest wait in which an answer would have started (the controllers' response time
+     plus one character), plus the rest of each controller's answer (firmware, 7 bytes).
    Discovery must be within 1.5x the floor (goal) while staying live (progress notes).
 4. A port that refuses 250000 and 76800 bps: the scan goes on (one note per refused rate).
 
@@ -38,10 +44,12 @@ from typing import Any
 
 from nurimc import Bus, Group, MotorState, NurimcError
 from nurimc.client.clock import VirtualClock
+from nurimc.client.timing import MAX_RESPONSE_TIME
 from nurimc.discovery import RateSkipped, discover
 from nurimc.multiturn import WRAP_DEGREES
-from nurimc.protocol import BAUD_RATES, DEVICE_DEFAULTS
+from nurimc.protocol import BAUD_RATES, DEVICE_DEFAULTS, PositionFeedback, decode
 from nurimc.sim import FaultConfig, SimBus
+from nurimc.sim.controller import Reply
 from nurimc.sim.port import SimSerial
 from nurimc.transport import SerialTransport
 
@@ -80,57 +88,89 @@ def true_angles(sim: SimBus) -> dict[int, float]:
         return out
 
 
-def cycles(
-    miss: float, virtual: bool, seconds: float, delay_ms: float = 0.0, delay_rate: float = 1.0
-) -> dict[str, Any]:
-    faults = FaultConfig(miss_rate=miss, delay_ms=delay_ms, delay_rate=delay_rate)
-    clock = VirtualClock() if virtual else None
-    sim = SimBus(wire_timing=True, seed=7, clock=clock, eeprom_time=0.02)
-    for i in MOTORS:
-        sim.add_controller(id=i, baud=RATE)
-    bus = Bus(SerialTransport(sim.open_serial(baudrate=RATE), "sim://"), clock=clock, busy_window=0.03)
-    group = Group(bus, MOTORS)
-    slot = group.stagger()
-    for m in group.motors:  # turning, so that every value is tied to the moment it was asked
-        m.set("resolution", 1000)
-    bus.send(*(m.make_run(5 + 3 * m.id) for m in group.motors))
-    sim.fault_config = faults
-    sim.faults.config = faults
-    commands = [m.make_run(5 + 3 * m.id) for m in group.motors]
-    limits = wire_limits(group, commands, slot)
-    now = bus.clock.now
-    out: dict[str, Any] = {}
-    for name, read in (("broadcast", group.read_states_broadcast), ("sequential", group.read_states)):
-        done = stale = errors = 0
-        missed, delayed = sim.faults.counts["missed"], sim.faults.counts["delayed"]
+class CycleRun:
+    """8 motors at 1 Mbps on a wire-timed simulator with one fault mix, measured in slices, so
+    that several mixes can take turns (a load that comes and goes hits them all alike)."""
+
+    def __init__(self, faults: FaultConfig, virtual: bool) -> None:
+        self.clock = VirtualClock() if virtual else None
+        self.sim = SimBus(wire_timing=True, seed=7, clock=self.clock, eeprom_time=0.02)
+        for i in MOTORS:
+            self.sim.add_controller(id=i, baud=RATE)
+        self.bus = Bus(
+            SerialTransport(self.sim.open_serial(baudrate=RATE), "sim://"), clock=self.clock, busy_window=0.03
+        )
+        self.group = Group(self.bus, MOTORS)
+        slot = self.group.stagger()
+        for m in self.group.motors:  # turning, so that every value is tied to the moment it was asked
+            m.set("resolution", 1000)
+        self.commands = [m.make_run(5 + 3 * m.id) for m in self.group.motors]
+        self.bus.send(*self.commands)
+        self.sim.fault_config = faults
+        self.sim.faults.config = faults
+        self.limits = wire_limits(self.group, self.commands, slot)
+        self.tally = {name: {"cycles": 0, "seconds": 0.0, "stale": 0, "errors": 0} for name in self.limits}
+        # what each controller sent, and when it was asked (bus clock): a value is stale if it
+        # was produced for a request older than its own call (cheap enough not to slow the cycle)
+        self.produced: dict[tuple[int, int, int, int], float] = {}
+        send = self.sim._send
+
+        def record(reply: Reply) -> None:
+            answer = decode(reply.frame)
+            if isinstance(answer, PositionFeedback):
+                key = (answer.id, answer.direction, answer.position, answer.speed)
+                self.produced[key] = reply.start - reply.controller.settings.response_time * 100e-6
+            send(reply)
+
+        self.sim._send = record  # type: ignore[method-assign]
+
+    def run(self, name: str, seconds: float) -> None:
+        read = self.group.read_states_broadcast if name == "broadcast" else self.group.read_states
+        tally, now = self.tally[name], self.bus.clock.now
         start = now()
         while now() - start < seconds:
-            group.command(commands)
-            before = true_angles(sim)
+            self.group.command(self.commands)
+            asked = self.sim.now()
             states = read()
-            after = true_angles(sim)
-            for device_id, state in states.items():
+            for state in states.values():
                 if not isinstance(state, MotorState):
-                    errors += 1
+                    tally["errors"] += 1
                     continue
-                low, high = sorted((before[device_id], after[device_id]))
-                stale += not low - 0.1 <= unwrapped(state.device_position, low) <= high + 0.1
-            done += 1
-        rate = done / (now() - start)
-        out[name] = {
-            "cycles_per_s": round(rate, 1),
-            "wire_limit_per_s": round(1 / limits[name], 1),
-            "fraction_of_wire": round(rate * limits[name], 3),
-            "stale_values": stale,
-            "slots_without_a_value": errors,
-            "answers_lost": sim.faults.counts["missed"] - missed,
-            "answers_late": sim.faults.counts["delayed"] - delayed,
-        }
-    out["fences"] = bus.stats.fences
-    out["quiet_waits"] = bus.stats.quiet_waits
-    bus.close()
-    sim.close()
-    return out
+                direction = 1 if state.device_position < 0 else 0
+                key = (state.id, direction, round(abs(state.device_position) * 100), round(state.speed * 10))
+                tally["stale"] += self.produced.get(key, -1.0) < asked  # an older request's answer
+            tally["cycles"] += 1
+        tally["seconds"] += now() - start
+
+    def result(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name, tally in self.tally.items():
+            rate = tally["cycles"] / tally["seconds"] if tally["seconds"] else 0.0
+            out[name] = {
+                "cycles_per_s": round(rate, 1),
+                "wire_limit_per_s": round(1 / self.limits[name], 1),
+                "fraction_of_wire": round(rate * self.limits[name], 3),
+                "stale_values": tally["stale"],
+                "slots_without_a_value": tally["errors"],
+            }
+        out["answers_lost"] = self.sim.faults.counts["missed"]
+        out["answers_late"] = self.sim.faults.counts["delayed"]
+        out["fences"] = self.bus.stats.fences
+        out["quiet_waits"] = self.bus.stats.quiet_waits
+        self.bus.close()
+        self.sim.close()
+        return out
+
+
+def cycles_side_by_side(mixes: dict[str, FaultConfig], virtual: bool, seconds: float) -> dict[str, Any]:
+    """Every mix for `seconds` per read kind, in slices of 0.25 s taken in turn."""
+    runs = {key: CycleRun(faults, virtual) for key, faults in mixes.items()}
+    slices = max(1, round(seconds / 0.25))
+    for _ in range(slices):
+        for run in runs.values():
+            for name in ("broadcast", "sequential"):
+                run.run(name, seconds / slices)
+    return {key: run.result() for key, run in runs.items()}
 
 
 def late_single_reads(reads: int) -> dict[str, Any]:
@@ -164,11 +204,13 @@ def late_single_reads(reads: int) -> dict[str, Any]:
 # -- 3: discovery ------------------------------------------------------------------------------
 def floor_of_rate(rate: int, controllers: int) -> float:
     """The wire floor for finding `controllers` at `rate` (module docstring)."""
+    silence = chars(6, rate) + max(MAX_RESPONSE_TIME + chars(1, rate), RESPONSE + chars(6, rate) * controllers)
     if controllers == 0:
-        return chars(6, rate) + RESPONSE + chars(1, rate)
+        return silence
     if controllers == 1:
-        return chars(6 + 6, rate) + RESPONSE + chars(6 + 7, rate) + RESPONSE
-    return 255 * (chars(6, rate) + RESPONSE + chars(1, rate)) + controllers * chars(7 - 1, rate)
+        return silence + chars(6 + 7, rate) + RESPONSE
+    walk = 255 * (chars(6, rate) + RESPONSE + chars(1, rate)) + controllers * chars(7 - 1, rate)
+    return chars(6, rate) + RESPONSE + chars(1, rate) + walk
 
 
 def discovery(n: int, all_rates: bool, seed: int) -> dict[str, Any]:
@@ -228,15 +270,11 @@ def main() -> None:
     quick = "--quick" in sys.argv
     seconds = 1.0 if quick else 4.0
     sections: dict[str, Callable[[], Any]] = {}
-    for miss in (0.0, 0.01, 0.03, 0.10):
-        sections[f"cycle_{miss:.0%}_lost"] = lambda m=miss: {
-            "real_time": cycles(m, False, seconds),
-            "virtual_time": cycles(m, True, seconds),
-        }
-    sections["cycle_30%_answers_60ms_late"] = lambda: {
-        "real_time": cycles(0.0, False, seconds, delay_ms=60, delay_rate=0.3),
-        "single_reads_115200": late_single_reads(50 if quick else 200),
-    }
+    mixes = {f"{miss:.0%}_lost": FaultConfig(miss_rate=miss) for miss in (0.0, 0.01, 0.03, 0.10)}
+    mixes["30%_answers_60ms_late"] = FaultConfig(delay_ms=60, delay_rate=0.3)
+    sections["cycles_real_time"] = lambda: cycles_side_by_side(mixes, False, seconds)
+    sections["cycles_virtual_time"] = lambda: cycles_side_by_side(mixes, True, seconds)
+    sections["late_single_reads_115200"] = lambda: late_single_reads(50 if quick else 200)
     for all_rates in (False, True):
         for n in (1, 2, 8, 32):
             key = f"discovery_{n}_at_9600_{'all_rates' if all_rates else 'one_rate'}"

@@ -18,6 +18,19 @@ from nurimc.sim import FaultConfig, SimBus
 from nurimc.transport import SerialTransport
 
 
+def virtual_sim(clock: Clock | None = None, **sim_options: Any) -> SimBus:
+    """A SimBus on `clock` (a new VirtualClock by default; REAL_CLOCK: real time)."""
+    clock = VirtualClock() if clock is None else clock
+    return SimBus(clock=None if isinstance(clock, RealClock) else clock, **sim_options)  # type: ignore[arg-type]
+
+
+def bus_on(sim: SimBus, baud: int = 9600, **bus_options: Any) -> Bus:
+    """A library Bus on an in-process port of `sim`, on the sim's clock."""
+    port = sim.open_serial(baudrate=baud, timeout=0.1)
+    clock = sim.virtual or REAL_CLOCK
+    return Bus(SerialTransport(port, "sim://", latency=0.002), clock=clock, **bus_options)
+
+
 def sim_bus(
     ids: dict[int, int] | list[int],
     baud: int = 9600,
@@ -34,20 +47,12 @@ def sim_bus(
 
     `resolution` (encoder pulses) is written through the library first: the default of 4 pulses
     quantises the reported position to 22.5 deg, too coarse for motion tests."""
-    clock = VirtualClock() if clock is None else clock
-    sim = SimBus(
-        faults=faults,
-        seed=seed,
-        wire_timing=wire_timing,
-        eeprom_time=eeprom_time,
-        clock=None if isinstance(clock, RealClock) else clock,  # type: ignore[arg-type]
-    )
+    sim = virtual_sim(clock, faults=faults, seed=seed, wire_timing=wire_timing, eeprom_time=eeprom_time)
     for device_id, rate in ids.items() if isinstance(ids, dict) else ((i, baud) for i in ids):
         sim.add_controller(id=device_id, baud=rate)
-    port = sim.open_serial(baudrate=baud, timeout=0.1)
     # the sim's EEPROM writes take 20 ms here; a 50 ms busy window keeps settings-heavy tests quick
     bus_options.setdefault("busy_window", 0.05)
-    bus = Bus(SerialTransport(port, "sim://", latency=0.002), retries=retries, clock=clock, **bus_options)
+    bus = bus_on(sim, baud, retries=retries, **bus_options)
     if resolution is not None:
         for controller in list(sim.controllers):
             bus.motor(controller.settings.id).set("resolution", resolution)
@@ -64,4 +69,4 @@ def wait_until(bus: Bus, check: Callable[[], bool], timeout: float = 5.0, step: 
     return False
 
 
-__all__ = ["REAL_CLOCK", "VirtualClock", "sim_bus", "wait_until"]
+__all__ = ["REAL_CLOCK", "VirtualClock", "bus_on", "sim_bus", "virtual_sim", "wait_until"]

@@ -5,15 +5,16 @@ from __future__ import annotations
 import asyncio
 
 from nurimc import AsyncBus
-from nurimc.client.clock import VirtualClock
 from nurimc.group import read_states
-from nurimc.sim import SimBus
 from nurimc.transport import SerialTransport
+
+from .simfixtures import virtual_sim
 
 
 def test_async_motion_settings_and_concurrency() -> None:
-    clock = VirtualClock()
-    sim = SimBus(eeprom_time=0.02, clock=clock)
+    sim = virtual_sim(eeprom_time=0.02)
+    clock = sim.virtual
+    assert clock is not None
     for device_id in (1, 2):
         sim.add_controller(id=device_id)
 

@@ -7,29 +7,17 @@ reads always whole; errors that say what happened and derive from NurimcError.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
 
 import pytest
 
 from nurimc import Bus, ControllerBusy, Group, NoAnswer, NurimcError
-from nurimc.client.clock import VirtualClock
 from nurimc.motor import MotorState
 from nurimc.protocol import SetControl
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.sim.controller import SimController
 from nurimc.sim.servo import Mode
-from nurimc.transport import SerialTransport
 
-
-def virtual_sim(**options: Any) -> SimBus:
-    """A simulated bus on virtual time (tests.client.simfixtures has the usual set-up)."""
-    return SimBus(clock=VirtualClock(), **options)
-
-
-def open_bus(sim: SimBus, baud: int = 9600, **options: object) -> Bus:
-    """A library bus on `sim`, on the sim's clock."""
-    port = sim.open_serial(baudrate=baud)
-    return Bus(SerialTransport(port, "sim://", latency=0.002), clock=sim.virtual, **options)  # type: ignore[arg-type]
+from .simfixtures import bus_on, virtual_sim
 
 
 @pytest.fixture
@@ -37,7 +25,7 @@ def slow_eeprom() -> Iterator[tuple[SimBus, SimController, Bus]]:
     """One controller whose EEPROM writes take 150 ms; the bus with its default busy window."""
     sim = virtual_sim(eeprom_time=0.15)
     controller = sim.add_controller(id=1)
-    bus = open_bus(sim)
+    bus = bus_on(sim)
     yield sim, controller, bus
     bus.close()
     sim.close()
@@ -45,7 +33,7 @@ def slow_eeprom() -> Iterator[tuple[SimBus, SimController, Bus]]:
 
 def test_busy_window_defaults_to_the_product_profile() -> None:
     sim = virtual_sim()
-    bus = open_bus(sim)
+    bus = bus_on(sim)
     assert bus.core.window(1) == 0.3  # spec/profiles.json, profile mc
     bus.motor(2, product="blmc-h")
     assert bus.core.window(2) == 0.3
@@ -95,7 +83,7 @@ def test_a_motor_released_before_the_program_started_is_enabled_to_move() -> Non
     controller = sim.add_controller(id=1)
     controller.settings.control = 1  # stored "off" from an earlier session
     controller.servo.release()
-    bus = open_bus(sim, busy_window=0.03)
+    bus = bus_on(sim, busy_window=0.03)
     bus.motor(1).move_to(20, rpm=600)
     with sim.lock:
         assert controller.settings.control == 0 and controller.servo.target == pytest.approx(20)
@@ -106,7 +94,7 @@ def test_a_motor_released_before_the_program_started_is_enabled_to_move() -> Non
 def test_no_answer_after_a_settings_write_says_busy_not_wiring() -> None:
     sim = virtual_sim(eeprom_time=0.15)
     sim.add_controller(id=1)
-    bus = open_bus(sim, busy_window=0.02, retries=1)  # a window shorter than this controller needs
+    bus = bus_on(sim, busy_window=0.02, retries=1)  # a window shorter than this controller needs
     bus.send(SetControl(1, 0))
     with pytest.raises(ControllerBusy) as err:
         bus.motor(1).read_state()
@@ -154,7 +142,7 @@ def test_late_answers_are_never_returned_as_fresh() -> None:
     controller = sim.add_controller(id=1, baud=115200)
     controller.settings.resolution = 1000  # 0.09 deg steps
     controller.apply_settings()
-    bus = open_bus(sim, 115200)
+    bus = bus_on(sim, 115200)
     motor = bus.motor(1)
     bus.send(motor.make_run(10))  # 60 deg/s
     stale = 0
@@ -178,7 +166,7 @@ def test_broadcast_reads_are_always_whole() -> None:
     sim = virtual_sim(faults=FaultConfig(miss_rate=0.05), seed=11)
     for i in ids:
         sim.add_controller(id=i, baud=1000000)
-    bus = open_bus(sim, 1000000, busy_window=0.03, late_answer=0.02)
+    bus = bus_on(sim, 1000000, busy_window=0.03, late_answer=0.02)
     group = Group(bus, ids)
     group.stagger()
     short = 0
@@ -199,7 +187,7 @@ def test_broadcast_read_gives_a_missing_motor_its_error() -> None:
     sim = virtual_sim()
     for i in (1, 2):
         sim.add_controller(id=i, baud=1000000)
-    bus = open_bus(sim, 1000000, busy_window=0.03, late_answer=0.01)
+    bus = bus_on(sim, 1000000, busy_window=0.03, late_answer=0.01)
     group = Group(bus, [1, 2, 3])  # ID 3 is not there
     group.slot = 2
     states = group.read_states_broadcast()
@@ -211,7 +199,7 @@ def test_broadcast_read_gives_a_missing_motor_its_error() -> None:
 
 def test_library_errors_derive_from_nurimc_error() -> None:
     sim = virtual_sim()
-    bus = open_bus(sim, 9600, busy_window=0.01)
+    bus = bus_on(sim, 9600, busy_window=0.01)
     group = Group(bus, list(range(40)))
     with pytest.raises(NurimcError, match="stagger at most"):
         group.stagger()
