@@ -37,9 +37,10 @@ def findings(rel: str, source: str) -> list[tuple[str, object, int]]:
     found: list[tuple[str, object, int]] = []
     for node in ast.walk(ast.parse(source)):
         value = _number(node)
-        hit = value is not None and abs(value) in LIMIT_VALUES and isinstance(node, ast.expr)
-        if hit and value is not None and isinstance(node, ast.expr) and (rel, abs(value), node.lineno) not in found:
-            found.append((rel, abs(value), node.lineno))  # once: -655.36 is the minus and its number
+        if value is not None and abs(value) in LIMIT_VALUES:
+            hit = (rel, abs(value), getattr(node, "lineno", 0))
+            if hit not in found:  # once: -655.36 is a minus and its number
+                found.append(hit)
         if isinstance(node, ast.List | ast.Tuple | ast.Set | ast.Dict):
             items = node.keys if isinstance(node, ast.Dict) else node.elts
             rates = {_number(n) for n in items if n is not None} & {float(r) for r in BAUD_RATES}
