@@ -20,6 +20,14 @@ import { LIMITS } from "./generated/host.js";
 import { SETTINGS, type SettingSpec, type SettingValue, setting, settingFromWire, settingToWire } from "./settings.js";
 import { arrivalToWire, fromWire, positionToWire, signedFromWire, speedToWire } from "./units.js";
 
+/** Reads taken at most to find two that agree before a write is built from them. */
+export const CONFIRM_READS = 4;
+
+/** Reads a write was to be built from did not agree (noise that passed the checksum): nothing was written. */
+export class UnconfirmedReadError extends Error {
+  override name = "UnconfirmedReadError";
+}
+
 export interface MotorState {
   id: number;
   /** degrees, continuous across the counter's wraps (host-side multi-turn tracking) */
@@ -227,17 +235,41 @@ export class Motor {
     const raw = settingToWire(spec, value);
     let fields: Record<string, number> = { [spec.field]: raw };
     if (spec.command === "set_position_gains" || spec.command === "set_speed_gains") {
-      const current = fieldsOf(await this.bus.request(make(spec.request as string, this.id, {})));
+      const current = await this.confirmedFields(spec); // never a value noise put there
       fields = { ...current, [spec.field]: raw };
     }
     await this.bus.send(make(spec.command as string, this.id, fields));
     if (spec.name === "response-time") this.bus.responseTimesUs.delete(this.id); // old or new: the largest until read back
-    const back = await this.readRaw(spec); // the bus holds it until the EEPROM busy window has ended
-    if (back !== raw) {
-      this.relative = null;
-      throw new VerifyError(spec.name, settingFromWire(spec, raw), settingFromWire(spec, back));
+    // the bus holds the read-back until the EEPROM busy window has ended; every field written must show
+    const back = fieldsOf(await this.bus.request(make(spec.request as string, this.id, {})));
+    this.remember(spec, back[spec.field] ?? NaN);
+    for (const [field, wrote] of Object.entries(fields)) {
+      if (back[field] !== wrote) {
+        this.relative = null;
+        const which = SETTINGS.find((s) => s.command === spec.command && s.field === field) ?? spec;
+        throw new VerifyError(which.name, settingFromWire(which, wrote), settingFromWire(which, back[field] ?? NaN));
+      }
     }
     return settingFromWire(spec, raw);
+  }
+
+  /**
+   * A setting's answer once two reads agree (at most CONFIRM_READS): noise that keeps the 8-bit
+   * checksum changes an answer at random, and a write built from one read would carry it into
+   * the controller's EEPROM (docs/library.md, Verified writes; as nurimc.settings.confirmed_answer).
+   */
+  private async confirmedFields(spec: SettingSpec): Promise<Record<string, number>> {
+    const seen: string[] = [];
+    for (let i = 0; i < CONFIRM_READS; i++) {
+      const answer = fieldsOf(await this.bus.request(make(spec.request as string, this.id, {})));
+      const key = JSON.stringify(answer);
+      if (seen.includes(key)) return answer;
+      seen.push(key);
+    }
+    throw new UnconfirmedReadError(
+      `ID ${this.id}: ${CONFIRM_READS} reads of ${spec.answer} all differ (${seen.join(", ")}): noise on the bus ` +
+        "gets past the checksum, so nothing was written; check termination, grounding and the cable, then try again",
+    );
   }
 
   // -- internals --------------------------------------------------------------------

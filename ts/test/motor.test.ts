@@ -2,7 +2,7 @@ import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { VerifyError } from "../src/bus/errors.js";
 import { decode, encode, type Message, make, toRecord } from "../src/codec.js";
-import { HOLD_RPM, Motor, TurnTracker } from "../src/motor.js";
+import { HOLD_RPM, Motor, TurnTracker, UnconfirmedReadError } from "../src/motor.js";
 import { UnitRangeError } from "../src/units.js";
 import { FakePort } from "./fake-port.js";
 
@@ -179,6 +179,41 @@ describe("Motor: settings by name, in physical units", () => {
     await motor.set("position_kp", 60);
     await motor.set("position-rated-current", 4.5);
     expect(state.gains).toEqual({ kp: 60, ki: 0, kd: 10, rated_current: 45 });
+  });
+
+  it("builds a gains write only from two reads that agree: a same-sum corrupted answer is never written back", async () => {
+    const { motor, state, port } = controller();
+    const answer = port.responder;
+    let reads = 0;
+    port.responder = (written, p) => {
+      const reply = answer(written, p);
+      if (decode(written).name === "request_position_gains" && reads++ === 0 && reply instanceof Uint8Array) {
+        const noisy = reply.slice(); // ki +100, kd -100: the checksum still holds
+        noisy[7] = ((noisy[7] ?? 0) + 100) & 0xff;
+        noisy[8] = ((noisy[8] ?? 0) - 100) & 0xff;
+        return noisy;
+      }
+      return reply;
+    };
+    await motor.set("position-kp", 60);
+    expect(state.gains).toEqual({ kp: 60, ki: 0, kd: 10, rated_current: 50 });
+  });
+
+  it("writes nothing when no two reads agree", async () => {
+    const { motor, port, commands } = controller();
+    const answer = port.responder;
+    let reads = 0;
+    port.responder = (written, p) => {
+      const reply = answer(written, p);
+      if (decode(written).name !== "request_position_gains" || !(reply instanceof Uint8Array)) return reply;
+      const noisy = reply.slice();
+      reads += 1;
+      noisy[7] = ((noisy[7] ?? 0) + reads) & 0xff;
+      noisy[8] = ((noisy[8] ?? 0) - reads) & 0xff;
+      return noisy;
+    };
+    await expect(motor.set("position-kp", 60)).rejects.toBeInstanceOf(UnconfirmedReadError);
+    expect(commands()).toEqual([]);
   });
 
   it("refuses values the setting cannot take, before sending anything", async () => {

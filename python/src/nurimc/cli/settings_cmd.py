@@ -189,9 +189,13 @@ def restore_journal(o: Options, ids: list[int], file: str) -> RestoreJournal:
         err.print(f"note: {incomplete_message(earlier)}; {then}", soft_wrap=True, markup=False)
     try:
         journal.begin(ids, file)
-    except OSError as error:
-        fail(
-            f"cannot write the restore journal in {journal.directory}: {error.strerror or error}; set NURIMC_STATE_DIR"
+    except OSError as error:  # a read-only home: the restore still runs, unguarded, and says so
+        journal.enabled = False
+        err.print(
+            f"warning: cannot keep a restore journal in {journal.directory} ({error.strerror or error}): "
+            "an interruption will not be detected; set NURIMC_STATE_DIR to a writable folder",
+            soft_wrap=True,
+            markup=False,
         )
     return journal
 

@@ -9,6 +9,7 @@ the `mcap` tools and rosbags.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
@@ -81,7 +82,12 @@ class McapRecorder:
             with self._lock:
                 if self._closed:
                     return
-                checkpoint(self._writer, self._stream)
+                checkpoint(self._writer, self._stream, sync=False)
+                fd = self._stream.fd
+            # fsync outside the lock: a slow disk must not hold up the messages being recorded
+            # (after a close in between, fsync of a closed or reused descriptor does no harm)
+            with contextlib.suppress(OSError):
+                os.fsync(fd)
 
     def _channel(self, topic: str, ros_type: str) -> int:
         key = (topic, ros_type)
