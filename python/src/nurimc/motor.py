@@ -17,7 +17,7 @@ from typing import Any, Concatenate, Generic, ParamSpec, Protocol, TypeVar, over
 from .client.actions import Now, Procedure, Wait
 from .client.core import BusCore
 from .errors import InputError, NoAnswer, NotArrived, SettingNotApplied, ValueOutOfRange
-from .multiturn import TurnTracker, signed_degrees
+from .multiturn import WRAP_DEGREES, TurnTracker, signed_degrees
 from .protocol import (
     PRODUCTS,
     AccelSpeed,
@@ -106,7 +106,7 @@ def _unsupported(line: str, title: str, device_id: int, what: str, name: str) ->
 
 def _distance(a: float, b: float) -> float:
     """Degrees between two device positions (the register wraps at ±655.36)."""
-    turn = 2 * 655.36
+    turn = 2 * WRAP_DEGREES
     d = (a - b) % turn
     return min(d, turn - d)
 

@@ -54,8 +54,8 @@ def read_capture(path: str | Path, baud: int | None = None) -> list[Entry] | Non
 def convert_to_mcap(source: str | Path, mcap_path: str | Path, baud: int | None = None) -> int:
     """Write every frame of a traffic log or capture to an MCAP file's /nurimc/frames topic, at
     its time in the log after the source file's modification time; returns the frame count."""
-    from .cli.frames import read_traffic_log
     from .recording.mcap_file import FRAMES_TOPIC, McapRecorder
+    from .trafficlog import read_traffic_log
 
     capture = read_capture(source, baud)
     entries = read_traffic_log(str(source)) if capture is None else capture

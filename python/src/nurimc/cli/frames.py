@@ -10,7 +10,7 @@ from typing import Any
 import typer
 
 from ..errors import InputError, PortLost
-from ..inputs import UNIT_SHOWN, field_value, integer, json_document, number, show, with_unit
+from ..inputs import UNIT_SHOWN, field_value, integer, with_unit
 from ..outage import OutageGuard, stderr_line
 from ..protocol import (
     ALL_LINES,
@@ -24,12 +24,12 @@ from ..protocol import (
     build_frame,
     line,
 )
+from ..trafficlog import read_traffic_log
 from .common import STOP, Number, emit, fail, note, open_bus, options, table
 
 BROADCAST = 0xFF
 
 #: A traffic log line longer than this is not one we wrote (a line holds one read or write).
-LOG_LINE_LIMIT = 1 << 20
 TO = Number("--to", 0, 255, whole=True)
 DURATION = Number("--duration", 0, 86400, "s")
 
@@ -228,35 +228,6 @@ def replay(
             rows.add_row(str(t), direction, f"[red]{noise}[/]")
             entries.append({"t": t, "dir": direction, "error": noise})
     emit(o, entries, rows)
-
-
-def read_traffic_log(path: str) -> list[tuple[float, str, bytes]]:
-    """Every line of a traffic log as (t, dir, bytes); InputError naming file, line and field if
-    a line is not one a traffic log holds ({"t": seconds, "dir": "tx"|"rx", "hex": "..."})."""
-    lines: list[tuple[float, str, bytes]] = []
-    with open(path, "rb") as file:
-        for number_, raw in enumerate(iter(lambda: file.readline(LOG_LINE_LIMIT + 1), b""), 1):
-            where = f"{path} line {number_}"
-            if len(raw) > LOG_LINE_LIMIT:
-                raise InputError(f"{where}: longer than {LOG_LINE_LIMIT} bytes; not a traffic log line")
-            if not raw.strip():
-                continue
-            entry = json_document(raw, where, "a traffic log line")
-            if not isinstance(entry, dict):
-                raise InputError(f"{where}: {show(entry)} is not a JSON object with t, dir and hex")
-            t = number(entry.get("t"), f"{where}: t", 0, None, "s")
-            direction = entry.get("dir")
-            if direction not in ("tx", "rx"):
-                raise InputError(f"{where}: dir {show(direction)} is not tx or rx")
-            text = entry.get("hex")
-            try:
-                data = bytes.fromhex(text) if isinstance(text, str) else None
-            except ValueError:
-                data = None
-            if data is None:
-                raise InputError(f"{where}: hex {show(text)} is not hex bytes")
-            lines.append((t, direction, data))
-    return lines
 
 
 def _wire_value(name: str, field: FieldSpec, text: str) -> int:
