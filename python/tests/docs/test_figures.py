@@ -1,7 +1,7 @@
 """Every figure docs/library.md quotes comes from the recorded results
 (benchmarks/results/library.json, and wire.json for lost and late answers): each phrase below
-is built from the JSON, rounded as the doc rounds it, and must appear in the doc word for word. Re-recording the benchmark without
-updating the doc (or the other way round) fails here."""
+is built from the JSON, rounded as the doc rounds it, and must appear in the doc word for word.
+Re-recording the benchmark without updating the doc (or the other way round) fails here."""
 
 from __future__ import annotations
 
