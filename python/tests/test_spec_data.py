@@ -17,10 +17,7 @@ GENERATED = {"protocol/_tables.py", "protocol/_host.py", "protocol/_settings.py"
 #: A limit that is also a step or a unit (0.1 RPM, 0.1 s) is everywhere as a scale: not checked.
 LIMIT_VALUES = {value for value in LIMITS.values() if value != 0.1}
 #: Places known to hold such a value, each with why (delete an entry when its file is fixed).
-KNOWN = {
-    ("discovery.py", "rates"): "the search order of the 18 rates (engineer arch rewrites discovery; derive it then)",
-    ("dashboard/worker.py", 655.33): "the console's step check (engineer link splits worker.py; use LIMITS then)",
-}
+KNOWN: dict[tuple[str, object], str] = {}  # (file, value) -> why it may stay; none may
 
 
 def _number(node: ast.AST) -> float | None:

@@ -93,7 +93,9 @@ def _motor(entry: object, where: str) -> dict[str, Any]:
     if not isinstance(settings, dict):
         raise BackupError(f"{where}: settings is {_kind(settings)}; give an object of setting: value")
     motor["settings"] = {
-        name: setting_value(name, value, f"{where}: settings.{name}") for name, value in settings.items()
+        # the name as JSON would write it: a key with a newline or a control character stays one line
+        name: setting_value(name, value, f"{where}: settings.{name if name.isprintable() else show(name)}")
+        for name, value in settings.items()
     }
     return motor
 

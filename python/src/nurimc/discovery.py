@@ -25,28 +25,10 @@ from .client.timing import MAX_RESPONSE_TIME
 from .errors import NoAnswer, RateRefused, UnexpectedAnswer
 from .products import detect_line
 from .protocol import BAUD_RATES, RequestFirmware, RequestPing
+from .protocol.host import DISCOVERY_RATE_ORDER
 
-# Most likely first: the default, then the usual fast rates, then the rest.
-RATE_ORDER = (
-    9600,
-    115200,
-    1000000,
-    57600,
-    19200,
-    38400,
-    500000,
-    250000,
-    230400,
-    76800,
-    28800,
-    14400,
-    4800,
-    2400,
-    1200,
-    600,
-    300,
-    110,
-)
+# Most likely first: the default, then the usual fast rates, then the rest (spec/host.json).
+RATE_ORDER = DISCOVERY_RATE_ORDER
 #: response time assumed while walking IDs without a broadcast to measure it (settings up to 50 x 100 us)
 WALK_RESPONSE_TIME = 0.005
 PING_LENGTH = 6  # bytes of a ping request and of its answer

@@ -221,6 +221,11 @@ NUMERIC: list[tuple[str, list[str], Callable[[str], bool] | None]] = [
         ["--port", NO_PORT, "record", "--mcap", "{tmp}/r.mcap", "--checkpoint", "V"],
         in_range(0.05, 60),
     ),
+    (
+        "record --port-wait",
+        ["--port", NO_PORT, "record", "--mcap", "{tmp}/r.mcap", "--port-wait", "V"],
+        in_range(0, 3600),
+    ),
     ("set id", ["--port", NO_PORT, "--id", "1", "set", "id", "V"], in_range(0, 254, whole=True)),
     ("set baud", ["--port", NO_PORT, "--id", "1", "set", "baud", "V"], one_rate),
     *[(f"set {name}", ["--port", NO_PORT, "--id", "1", "set", name, "V"], None) for name in SETTINGS],

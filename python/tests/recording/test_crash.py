@@ -102,7 +102,18 @@ def test_record_exits_non_zero_when_its_port_dies(tmp_path: Path) -> None:
     try:
         wait_for_line(sim, "ready:")
         record = subprocess.Popen(
-            [NURIMC, "--port", f"socket://127.0.0.1:{port}", "record", "--mcap", str(path), "--ids", "1"],
+            [
+                NURIMC,
+                "--port",
+                f"socket://127.0.0.1:{port}",
+                "record",
+                "--mcap",
+                str(path),
+                "--ids",
+                "1",
+                "--port-wait",
+                "1",
+            ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,

@@ -14,6 +14,7 @@ from .common import EXIT_DEVICE, Number, fail, options, out
 from .ros2_cmd import RATE, SECONDS
 
 CHECKPOINT = Number("--checkpoint", 0.05, 60, "s")
+PORT_WAIT = Number("--port-wait", 0, 3600, "s")
 
 
 def record(
@@ -36,6 +37,12 @@ def record(
         "--checkpoint",
         help=f"Seconds between points where the file is complete ({CHECKPOINT.allowed}); a crash loses at most that.",
         parser=CHECKPOINT,
+    ),
+    port_wait: float = typer.Option(
+        30.0,
+        "--port-wait",
+        help=f"Seconds to wait for a lost port to come back before the recording ends ({PORT_WAIT.allowed}).",
+        parser=PORT_WAIT,
     ),
     source: Path = typer.Option(
         None,
@@ -93,11 +100,20 @@ def record(
             period = 1.0 / rate if rate else 0.0
             next_read = time.monotonic()
             outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
+            lost_since: float | None = None
             while not stop.is_set():
                 try:
                     bridge.readings(bus.run(read_states(procedures)))
-                except PortLost:  # said once; recording resumes with fresh readings when it is back
-                    outage.wait_up(0.5)
+                    lost_since = None
+                except PortLost as error:  # said once; recording resumes with fresh readings when it is back
+                    lost_since = time.monotonic() if lost_since is None else lost_since
+                    if time.monotonic() - lost_since >= port_wait:  # gone for good: end, then say so
+                        port_error.append(f"{error} (waited {port_wait:g} s, --port-wait)")
+                        stop.set()
+                        return
+                    outage.wait_up(min(0.5, port_wait))
+                    if stop.is_set() and outage.down:  # ended (Ctrl-C, --seconds) while the port is lost
+                        port_error.append(str(error))
                     continue
                 except NurimcError as error:  # the port itself failed: end the recording, then say so
                     port_error.append(str(error))

@@ -27,11 +27,14 @@ from ..discovery import Found, Progress, discover
 from ..errors import ControllerBusy, NurimcError, PortError, PortLost
 from ..motor import Motor, MotorState
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
+from ..protocol.host import LIMITS
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
 from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
+
+POSITION_LIMIT = LIMITS["position_deg"]  # the largest target a position command can carry, degrees
 
 POLL_HZ = 200.0  # at most this many reads of each watched motor per second
 ESTOP_VERIFY_SECONDS = 2.0  # the controllers answer again once their EEPROM write is done (50-300 ms)
@@ -425,9 +428,9 @@ class BusWorker:
         motor = self.motor(step.id)
         start = motor.read_state().device_position
         target = round(start + step.amplitude, 2)
-        if abs(target) > 655.33:
+        if abs(target) > POSITION_LIMIT:
             raise ValueError(
-                f"step: the target {target:.2f} deg is past the device's position range ±655.33 deg "
+                f"step: the target {target:.2f} deg is past the device's position range ±{POSITION_LIMIT} deg "
                 f"(the motor is at {start:.2f} deg in the device's frame); use a smaller step, "
                 "move back, or set zero here first"
             )

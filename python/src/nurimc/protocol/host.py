@@ -25,6 +25,9 @@ BUSY_POLL_INTERVAL: float = HOST["eeprom"]["poll_interval_s"]
 
 LIMITS: dict[str, float] = {k: v for k, v in HOST["limits"].items() if k != "source"}
 
+#: the order discovery searches the rates in, most likely first (a decision: docs/protocol.md)
+DISCOVERY_RATE_ORDER: tuple[int, ...] = tuple(HOST["discovery"]["rate_order"])
+
 
 @dataclass(frozen=True, slots=True)
 class Profile:
