@@ -156,7 +156,10 @@ def test_controllers_sharing_a_rate_are_found_at_the_pace_of_the_wire() -> None:
     floor += sum(6 * char[r] + response + char[r] for r in BAUD_RATES if r != 9600)
     assert seconds <= 1.5 * floor, (seconds, floor)
     assert len(sent) > 255  # the walk went out on the wire ...
-    assert {mode for data in sent for mode in frame_modes(data)} <= {0xA0, 0xCD}  # ... pings and firmware requests only
+    modes = {mode for data in sent for mode in frame_modes(data)}
+    # ... pings and firmware requests, and per controller found its product line's question (AB
+    # answered: MC; nurimc.products): requests only, never a command (no write)
+    assert {0xA0, 0xCD} <= modes <= {0xA0, 0xCD, 0xAB}
     bus.close()
     sim.close()
 

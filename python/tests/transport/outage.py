@@ -12,12 +12,13 @@ from nurimc.sim import SimBus
 from nurimc.sim.faultproxy import FaultProxy
 
 BAUD = 115200
+WIRE = True
 
 
 @contextmanager
 def cuttable_bus(kind: str, tmp: Path, ids: tuple[int, ...] = (1,)) -> Iterator[tuple[SimBus, FaultProxy]]:
     """A simulator with `ids` at BAUD, served over TCP, behind a FaultProxy of `kind` (pty or tcp)."""
-    sim = SimBus(wire_timing=False)
+    sim = SimBus(wire_timing=WIRE)
     for device_id in ids:
         sim.add_controller(id=device_id, baud=BAUD)
     server = sim.serve_tcp(port=0, baud=BAUD)
