@@ -1,6 +1,6 @@
-// The late/stale-answer rule (docs/protocol.md, Stale answers), with its parameter from the
-// generated spec data (spec/host.json timing.late_answer_s -> HOST_TIMING.lateAnswerMs). The
-// rule's cases are language-neutral in stale-answers.json (stale-conformance.test.ts runs them).
+// The stale-answer rule (docs/protocol.md, Stale answers), with its parameter from the generated
+// spec data (spec/host.json timing.late_answer_s -> HOST_TIMING.lateAnswerMs). The rule's cases are
+// language-neutral in spec/vectors/stale-answers.json (stale-conformance.test.ts runs them).
 import { describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { NoAnswerError } from "../src/bus/errors.js";
