@@ -12,17 +12,19 @@ import { FakePort } from "./fake-port.js";
 
 interface WireEntry {
   frame: number;
-  at: { D?: number; L?: number; chars?: number };
+  at: { ms?: number; D?: number; L?: number; chars?: number };
   answer?: Record<string, number>;
   message?: { name: string; id?: number } & Record<string, number | string>;
   part?: [number, number?];
 }
 interface Step {
   ask?: { request: string; id: number };
+  ask_all?: { request: string; ids: number[]; slot: number };
   wire: WireEntry[];
   sends: string[];
   expect: Record<string, unknown>;
   min_elapsed?: { D?: number; L?: number };
+  max_elapsed?: { ms: number };
   owed_after?: Record<string, number>;
 }
 interface Case {
@@ -81,6 +83,12 @@ function outcome(result: Message | Error): Record<string, unknown> {
   return { name: result.name };
 }
 
+/** The window of a broadcast read of `count` staggered IDs (as nurimc.group.broadcast_window). */
+function broadcastWindowMs(count: number, slot: number): number {
+  const { baud, latency_ms, margin_ms } = shared.timing;
+  return (count + 1) * slot * 0.1 + wireTimeMs(18, baud) + 2 * latency_ms + margin_ms;
+}
+
 const statNames: Record<string, "staleFrames" | "fences" | "quietWaits"> = {
   stale_frames: "staleFrames",
   fences: "fences",
@@ -119,7 +127,8 @@ describe("stale answers: the shared cases (spec/vectors/stale-answers.json)", ()
         sent.push(request);
         for (const entry of script.filter((e) => e.frame === index)) {
           const delay =
-            (entry.at.D ?? 0) * bus.timeoutMs(request) +
+            (entry.at.ms ?? 0) +
+            (entry.at.D === undefined ? 0 : entry.at.D * bus.timeoutMs(request)) +
             (entry.at.L ?? 0) * bus.lateAnswerMs +
             (entry.at.chars ?? 0) * wireTimeMs(1, port.baudRate);
           let bytes: Uint8Array;
@@ -133,15 +142,22 @@ describe("stale answers: the shared cases (spec/vectors/stale-answers.json)", ()
         return null;
       };
       for (const [number, step] of c.steps.entries()) {
-        const ask = step.ask;
-        if (ask === undefined) throw new Error(`step ${number}: the TypeScript client has no broadcast read`);
         script = step.wire;
         sent = [];
         const started = clock.now;
         let result: Record<string, unknown> | undefined;
-        bus.request(make(ask.request, ask.id, {})).then(
-          (answer) => {
-            result = outcome(answer);
+        const { ask, ask_all: all } = step;
+        const call =
+          ask !== undefined
+            ? bus.request(make(ask.request, ask.id, {})).then(outcome)
+            : all !== undefined
+              ? bus
+                  .requestBroadcast(all.request, all.ids, { windowMs: broadcastWindowMs(all.ids.length, all.slot) })
+                  .then((got) => Object.fromEntries([...got].map(([id, answer]) => [String(id), outcome(answer)])))
+              : Promise.reject(new Error(`step ${number}: neither ask nor ask_all`));
+        call.then(
+          (got) => {
+            result = got;
           },
           (error: Error) => {
             result = outcome(error);
@@ -152,9 +168,13 @@ describe("stale answers: the shared cases (spec/vectors/stale-answers.json)", ()
           if (!clock.step()) throw new Error(`step ${number}: the call waits for nothing (it would hang)`);
           await settle();
         }
-        expect(sent.map((m) => `${m.name} ${m.id}`), `step ${number}: frames sent`).toEqual(step.sends);
+        expect(
+          sent.map((m) => `${m.name} ${m.id}`),
+          `step ${number}: frames sent`,
+        ).toEqual(step.sends);
         expect(result, `step ${number}`).toEqual(step.expect);
-        if (step.min_elapsed !== undefined) {
+        if (step.max_elapsed !== undefined) expect(clock.now - started).toBeLessThanOrEqual(step.max_elapsed.ms);
+        if (step.min_elapsed !== undefined && ask !== undefined) {
           const least =
             (step.min_elapsed.D ?? 0) * bus.timeoutMs(make(ask.request, ask.id, {})) +
             (step.min_elapsed.L ?? 0) * bus.lateAnswerMs;

@@ -19,7 +19,7 @@ from nurimc.client.actions import Discard, Note, Now, Procedure, Receive, Send, 
 from nurimc.client.core import BusCore
 from nurimc.client.timing import Timing
 from nurimc.group import read_states_broadcast
-from nurimc.motor import MotorProcedures
+from nurimc.motor import MotorProcedures, MotorState
 from nurimc.protocol import Message, StreamParser, answer_class, make, make_request, message_class
 
 from ..conftest import ROOT
@@ -54,10 +54,10 @@ class ScriptedWire:
     def arrive(self, at: float, data: bytes) -> None:
         heapq.heappush(self.arrivals, (at, next(self.order), data))
 
-    def deadline(self, request: Message) -> float:
+    def deadline(self, request: Message, frame_len: int) -> float:
         answer = answer_class(type(request))
         return self.core.timing.answer_deadline(
-            len(request.encode()), answer.SPEC.size + 4, self.core.baudrate, self.core.response_times.get(request.id)
+            frame_len, answer.SPEC.size + 4, self.core.baudrate, self.core.response_times.get(request.id)
         )
 
     def written(self, frame: bytes, end: float) -> None:
@@ -70,7 +70,8 @@ class ScriptedWire:
             at = entry["at"]
             when = (
                 end
-                + at.get("D", 0) * self.deadline(request)
+                + at.get("ms", 0) / 1000
+                + (at["D"] * self.deadline(request, len(frame)) if "D" in at else 0)
                 + at.get("L", 0) * self.core.late_answer
                 + at.get("chars", 0) * self.core.timing.wire_time(1, self.core.baudrate)
             )
@@ -138,6 +139,13 @@ def outcome(result: Message | Exception) -> dict[str, Any]:
     return {"name": result.name}
 
 
+def state_outcome(state: MotorState | Exception) -> dict[str, Any]:
+    """A broadcast read's entry, as the raw position its answer carried (0.01 degree units)."""
+    if isinstance(state, Exception):
+        return {"error": type(state).__name__}
+    return {"position": round(abs(state.device_position) * 100)}
+
+
 @pytest.mark.parametrize("case", SHARED["cases"], ids=[c["name"] for c in SHARED["cases"]])
 def test_shared_stale_case(case: dict[str, Any]) -> None:
     core = BusCore(
@@ -163,18 +171,17 @@ def test_shared_stale_case(case: dict[str, Any]) -> None:
             ask = step["ask_all"]
             motors = [MotorProcedures(core, i) for i in ask["ids"]]
             states = wire.call(read_states_broadcast(motors, ask["slot"]), step["wire"])
-            got = {
-                str(i): {"error": type(s).__name__} if isinstance(s, Exception) else {"position": s.raw_position}
-                for i, s in states.items()
-            }
+            got = {str(i): state_outcome(s) for i, s in states.items()}
         where = f"step {number}"
         assert [f"{m.name} {m.id}" for m in wire.sent] == step["sends"], where
         assert got == step["expect"], where
         if "min_elapsed" in step:
             request = make_request(step["ask"]["request"], step["ask"]["id"])
-            least = step["min_elapsed"].get("D", 0) * wire.deadline(request)
+            least = step["min_elapsed"].get("D", 0) * wire.deadline(request, len(request.encode()))
             least += step["min_elapsed"].get("L", 0) * core.late_answer
             assert wire.clock - started >= least, where
+        if "max_elapsed" in step:
+            assert wire.clock - started <= step["max_elapsed"]["ms"] / 1000, where
         core.forget_expired(wire.clock)
         for device_id, owed in step.get("owed_after", {}).items():
             assert len(core._owed.get(int(device_id), [])) == owed, f"{where}: ID {device_id} owes"

@@ -38,15 +38,8 @@
  *   CancelledError without touching the port, the call in progress stops waiting, and the stop's
  *   frames are written next, ahead of anything sent after it.
  */
-import {
-  type AnswerMessageOf,
-  answerName,
-  encode,
-  type Message,
-  type MessageOf,
-  make,
-  messageSpec,
-} from "../codec.js";
+import { type AnswerMessageOf, answerName, encode, type Message, type MessageOf, make, messageSpec } from "../codec.js";
+import { buildFrame } from "../frame.js";
 import { DEFAULT_PROFILE, EEPROM_WRITES, HOST_PROFILES, HOST_TIMING } from "../generated/host.js";
 import type { AnswerOf } from "../generated/messages.js";
 import { BAUD_RATES, BROADCAST_ID } from "../generated/tables.js";
@@ -123,10 +116,30 @@ interface Pending {
   answer: string;
   /** a fence: done as soon as its ID owes no `fenceFor` answer (its answer is settled, not taken) */
   fenceFor?: string;
+  /** a broadcast read: collects the answers of `ids` (see requestBroadcast) */
+  broadcast?: BroadcastRead;
   unexpected: Message[];
   resolve: (answer: Message) => void;
   /** The port failed while the answer was awaited. */
   fail: (error: Error) => void;
+}
+
+/** A broadcast read in progress. */
+interface BroadcastRead {
+  /** the IDs, in the order they answer (staggered response times) */
+  ids: readonly number[];
+  /** IDs whose answer may be taken: those that owed no answer of the class before */
+  wanted: ReadonlySet<number>;
+  heard: Set<number>;
+  settled: Set<number>;
+  answers: Map<number, Message>;
+}
+
+export interface BroadcastOptions {
+  /** How long the answers may take after the write, ms (default: the largest deadline among the IDs). */
+  windowMs?: number;
+  /** Ends the call when aborted: rejects with the signal's reason. */
+  signal?: AbortSignal;
 }
 
 export interface RequestOptions {
@@ -355,6 +368,44 @@ export class Bus {
     return this.exclusive(() => this.transact(request, frame, answer, retries, signal), signal);
   }
 
+  /**
+   * One request to every ID (ID 255), answered by each of `ids` in turn: give them staggered
+   * response times, and `ids` in the order they answer. Outside the document's §17 (requests go
+   * to 0-254), so use it where the controllers answer broadcast requests. Every ID's answer is
+   * owed (docs/protocol.md, Stale answers): an ID that owed an answer of this class to an earlier
+   * call is not taken from the broadcast (its answer only settles), and it and any ID whose answer
+   * is missing are asked on their own, behind a fence. Once the last ID has answered, a missing
+   * one is late and the window does not run out. Returns each ID's answer or its error, in order.
+   */
+  requestBroadcast<N extends RequestName>(
+    request: N,
+    ids: readonly number[],
+    options?: BroadcastOptions,
+  ): Promise<Map<number, AnswerMessageOf<N> | BusError>>;
+  requestBroadcast(
+    request: string,
+    ids: readonly number[],
+    options?: BroadcastOptions,
+  ): Promise<Map<number, Message | BusError>>;
+  requestBroadcast(
+    request: string,
+    ids: readonly number[],
+    options: BroadcastOptions = {},
+  ): Promise<Map<number, Message | BusError>> {
+    let spec: ReturnType<typeof messageSpec>;
+    try {
+      spec = messageSpec(request);
+      if (spec.kind !== "request") throw new BusError(`${request} is a ${spec.kind}, not a request`);
+      for (const id of ids) deviceId("requestBroadcast ids", String(id));
+      if (new Set(ids).size !== ids.length) throw new RangeError("requestBroadcast: an ID is listed twice");
+      if (options.windowMs !== undefined) nonNegative("windowMs", options.windowMs);
+    } catch (err) {
+      return Promise.reject(err);
+    }
+    const signal = options.signal;
+    return this.exclusive(() => this.broadcastRead(spec.name, spec.mode, ids, options.windowMs, signal), signal);
+  }
+
   /** The timeout of one attempt of `request` at the current rate (from the end of the write). */
   timeoutMs(request: Message): number {
     return answerDeadlineMs(
@@ -443,6 +494,7 @@ export class Bus {
     frame: Uint8Array,
     timeout: number,
     signal: AbortSignal,
+    owedEntries?: Owed[],
   ): Promise<Message | null> {
     const { request } = pending;
     let settle: (message: Message | null) => void = () => undefined;
@@ -458,14 +510,15 @@ export class Bus {
     signal.addEventListener("abort", abort);
     if (signal.aborted) abort();
     this.parser.clear(); // stale partial bytes from before this request (a copy's first bytes)
-    const owed = this.owe(request.id, pending.answer, Number.POSITIVE_INFINITY);
+    const owed = owedEntries ?? [this.owe(request.id, pending.answer, Number.POSITIVE_INFINITY)];
     this.pending = pending;
     let timer: ReturnType<typeof setTimeout> | undefined;
     try {
       try {
         await this.transmit([request], frame);
       } finally {
-        owed.until = this.now() + timeout + this.lateAnswerMs; // the deadline counts from the end of the write
+        const until = this.now() + timeout + this.lateAnswerMs; // the deadline counts from the end of the write
+        for (const entry of owed) entry.until = until;
       }
       timer = setTimeout(() => settle(null), timeout);
       return await got;
@@ -537,6 +590,63 @@ export class Bus {
     this.lastSeen.set(message.id, { name: message.name, key, at: this.now() });
     if (last !== undefined && last.key === key) return true;
     return this.resolve(message);
+  }
+
+  private async broadcastRead(
+    name: string,
+    mode: number,
+    ids: readonly number[],
+    windowMs: number | undefined,
+    signal?: AbortSignal,
+  ): Promise<Map<number, Message | BusError>> {
+    const stopped = this.stopSignal.signal;
+    signal = signal === undefined ? stopped : AbortSignal.any([signal, stopped]);
+    const answer = answerName(name);
+    const out = new Map<number, Message | BusError>();
+    if (ids.length === 0) return out;
+    const window = windowMs ?? Math.max(...ids.map((id) => this.timeoutMs(make(name, id, {}) as Message)));
+    this.forgetExpired(this.now());
+    // an ID that may still send a late answer of this class cannot be told from its fresh one here
+    const wanted = new Set(ids.filter((id) => !this.owes(id, answer)));
+    for (const id of ids) await this.duplicateGap(id, answer, signal);
+    await this.waitUntilFree([BROADCAST_ID], signal);
+    this.stats.requests += 1;
+    const read: BroadcastRead = { ids, wanted, heard: new Set(), settled: new Set(), answers: new Map() };
+    const request = { name, id: BROADCAST_ID } as Message;
+    const pending: Pending = {
+      request,
+      answer,
+      broadcast: read,
+      unexpected: [],
+      resolve: () => undefined,
+      fail: () => undefined,
+    };
+    const owed = ids.map((id) => this.owe(id, answer, Number.POSITIVE_INFINITY));
+    try {
+      await this.exchange(pending, buildFrame(BROADCAST_ID, mode, new Uint8Array()), window, signal, owed);
+    } finally {
+      const until = this.now() + window + this.lateAnswerMs;
+      for (const entry of owed) if (entry.until === Number.POSITIVE_INFINITY) entry.until = until;
+    }
+    for (const id of ids) {
+      const got = read.answers.get(id);
+      if (got !== undefined) {
+        out.set(id, got);
+        continue;
+      }
+      const single = make(name, id, {}) as Message;
+      try {
+        // asked on its own, behind a fence: its late answer to the broadcast cannot be taken
+        out.set(id, await this.transact(single, encode(single), answer, this.retries, signal));
+      } catch (err) {
+        if (
+          !(err instanceof NoAnswerError || err instanceof CorruptedAnswerError || err instanceof UnexpectedAnswerError)
+        )
+          throw err;
+        out.set(id, err);
+      }
+    }
+    return out;
   }
 
   /**
@@ -664,6 +774,20 @@ export class Bus {
       if (pending === null) {
         if (isRequest) this.stats.echoes += 1;
         else this.settleFrame(message);
+      } else if (pending.broadcast !== undefined) {
+        const read = pending.broadcast;
+        if (isRequest) this.stats.echoes += 1;
+        else if (message.name === pending.answer && read.wanted.has(message.id) && !read.heard.has(message.id)) {
+          this.take(message);
+          read.answers.set(message.id, message);
+          read.heard.add(message.id);
+        } else if (this.settleFrame(message) && read.ids.includes(message.id)) read.settled.add(message.id);
+        const done = new Set([...read.heard, ...read.settled]);
+        // every ID has answered, or the last to answer has: any missing answer is late (left owed)
+        if (done.size >= read.ids.length || done.has(read.ids.at(-1) as number)) {
+          this.pending = null;
+          pending.resolve(message);
+        }
       } else if (pending.fenceFor !== undefined) {
         if (message.id === pending.request.id && isRequest) this.stats.echoes += 1;
         else this.settleFrame(message);
