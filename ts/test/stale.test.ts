@@ -16,6 +16,15 @@ describe("stale answers", () => {
     expect(new Bus(new FakePort()).lateAnswerMs).toBe(HOST_TIMING.lateAnswerMs);
   });
 
+  it("refuses a broadcast read that cannot be told apart", async () => {
+    const bus = new Bus(new FakePort(), fast);
+    await expect(bus.requestBroadcast("request_position", [1, 255])).rejects.toThrow(/0\.\.254/);
+    await expect(bus.requestBroadcast("request_position", [1, 1])).rejects.toThrow(/listed twice/);
+    await expect(bus.requestBroadcast("set_control", [1])).rejects.toThrow(/not a request/);
+    await expect(bus.requestBroadcast("request_position", [1], { windowMs: -1 })).rejects.toThrow(/>= 0/);
+    expect(await bus.requestBroadcast("request_position", [])).toEqual(new Map());
+  });
+
   it("forgets what is owed when the rate changes", async () => {
     const port = new FakePort(() => null);
     const bus = new Bus(port, fast);

@@ -621,13 +621,9 @@ export class Bus {
       resolve: () => undefined,
       fail: () => undefined,
     };
+    // every ID's answer is owed until window + late after the write (exchange sets the time)
     const owed = ids.map((id) => this.owe(id, answer, Number.POSITIVE_INFINITY));
-    try {
-      await this.exchange(pending, buildFrame(BROADCAST_ID, mode, new Uint8Array()), window, signal, owed);
-    } finally {
-      const until = this.now() + window + this.lateAnswerMs;
-      for (const entry of owed) if (entry.until === Number.POSITIVE_INFINITY) entry.until = until;
-    }
+    await this.exchange(pending, buildFrame(BROADCAST_ID, mode, new Uint8Array()), window, signal, owed);
     for (const id of ids) {
       const got = read.answers.get(id);
       if (got !== undefined) {
