@@ -95,7 +95,7 @@ export interface BusStats {
   retries: number;
   /** our own request, echoed back by the adapter */
   echoes: number;
-  /** frames received outside a transaction (discarded) */
+  /** frames no call took as its answer: late answers, copies, fence answers (Stale answers) */
   staleFrames: number;
   /** frames received during a transaction that were not its answer */
   unexpectedFrames: number;
