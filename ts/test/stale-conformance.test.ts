@@ -60,7 +60,8 @@ function broadcastWindowMs(count: number, slot: number): number {
   return (count + 1) * slot * 0.1 + wireTimeMs(18, baud) + 2 * latency_ms + margin_ms;
 }
 
-const statNames: Record<string, "staleFrames" | "fences" | "quietWaits"> = {
+const statNames: Record<string, "staleFrames" | "fences" | "quietWaits" | "echoes"> = {
+  echo_frames: "echoes",
   stale_frames: "staleFrames",
   fences: "fences",
   quiet_waits: "quietWaits",
