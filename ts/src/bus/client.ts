@@ -21,17 +21,25 @@
  *   while a call waits for its answer fails that call at once; `request(..., { signal })`
  *   ends the call when the signal aborts (before its turn, in a busy wait or waiting for
  *   the answer) and frees the queue.
- * - Stale answers (docs/protocol.md, Stale answers; the Python library's rule): a request that
- *   got no answer by its deadline leaves an answer owed by its ID until
- *   `sent + deadline + late` (spec/host.json `timing.late_answer_s`). Before the next request to
- *   an ID that owes answers, the client listens until they came or their time is up (a quiet
- *   period); what comes is counted as stale and dropped. A late answer to an earlier attempt of
- *   the same call is that call's answer. A rate change forgets what is owed.
+ * - Stale answers (docs/protocol.md, Stale answers: the Python library's fence rule, the same
+ *   assumptions A1-A3 and parameters). Every request sent leaves an owed entry for its ID (its
+ *   answer class, in send order) until an answer settles it or `sent + deadline + late` passes
+ *   (spec/host.json `timing.late_answer_s`). An answer of class C settles the earliest C entry of
+ *   its ID and every entry before it (A1: answers come in order); a byte-identical repeat of the
+ *   last answer seen from an ID settles nothing (A2: it may be a copy). A request of class C goes
+ *   to an ID only when that ID owes no C answer to an earlier call: otherwise a fence (a ping; for
+ *   a ping, a firmware request) goes first, and its answer settles everything asked before it.
+ *   Two unanswered fences fall back to listening until the owed C entries expire (A3). Before
+ *   asking an ID the same thing it has just answered, the client leaves two character times, so a
+ *   copy has arrived and is dropped before the request. A late answer to an earlier attempt of
+ *   the same call is that call's answer. A rate change forgets what is owed. The shared cases:
+ *   spec/vectors/stale-answers.json (run against this client and the Python one).
  * - The emergency stop (`emergency()`) jumps the queue: every queued call fails with
  *   CancelledError without touching the port, the call in progress stops waiting, and the stop's
  *   frames are written next, ahead of anything sent after it.
  */
-import { type AnswerMessageOf, answerName, encode, type Message, type MessageOf, messageSpec } from "../codec.js";
+import { type AnswerMessageOf, answerName, encode, type Message, type MessageOf, make, messageSpec } from "../codec.js";
+import { buildFrame } from "../frame.js";
 import { DEFAULT_PROFILE, EEPROM_WRITES, HOST_PROFILES, HOST_TIMING } from "../generated/host.js";
 import type { AnswerOf } from "../generated/messages.js";
 import { BAUD_RATES, BROADCAST_ID } from "../generated/tables.js";
@@ -87,7 +95,7 @@ export interface BusStats {
   retries: number;
   /** our own request, echoed back by the adapter */
   echoes: number;
-  /** frames received outside a transaction (discarded) */
+  /** frames no call took as its answer: late answers, copies, fence answers (Stale answers) */
   staleFrames: number;
   /** frames received during a transaction that were not its answer */
   unexpectedFrames: number;
@@ -95,8 +103,10 @@ export interface BusStats {
   corrupted: number;
   /** frames held back until a controller's EEPROM busy window ended */
   busyWaits: number;
-  /** requests that first waited out answers their ID still owed (the quiet period) */
+  /** requests that waited out answers their ID still owed after two unanswered fences (A3) */
   quietWaits: number;
+  /** fence requests sent before a request whose ID still owed an answer of its class */
+  fences: number;
   /** calls an emergency stop cancelled */
   cancelled: number;
 }
@@ -104,10 +114,32 @@ export interface BusStats {
 interface Pending {
   request: Message;
   answer: string;
+  /** a fence: done as soon as its ID owes no `fenceFor` answer (its answer is settled, not taken) */
+  fenceFor?: string;
+  /** a broadcast read: collects the answers of `ids` (see requestBroadcast) */
+  broadcast?: BroadcastRead;
   unexpected: Message[];
   resolve: (answer: Message) => void;
   /** The port failed while the answer was awaited. */
   fail: (error: Error) => void;
+}
+
+/** A broadcast read in progress. */
+interface BroadcastRead {
+  /** the IDs, in the order they answer (staggered response times) */
+  ids: readonly number[];
+  /** IDs whose answer may be taken: those that owed no answer of the class before */
+  wanted: ReadonlySet<number>;
+  heard: Set<number>;
+  settled: Set<number>;
+  answers: Map<number, Message>;
+}
+
+export interface BroadcastOptions {
+  /** How long the answers may take after the write, ms (default: the largest deadline among the IDs). */
+  windowMs?: number;
+  /** Ends the call when aborted: rejects with the signal's reason. */
+  signal?: AbortSignal;
 }
 
 export interface RequestOptions {
@@ -130,6 +162,7 @@ export class Bus {
     corrupted: 0,
     busyWaits: 0,
     quietWaits: 0,
+    fences: 0,
     cancelled: 0,
   };
   readonly parser = new StreamParser();
@@ -160,9 +193,11 @@ export class Bus {
   private epoch = 0;
   /** aborted by an emergency stop: ends the waits (busy, quiet, retry pause) of the call in progress */
   private stopSignal = new AbortController();
-  /** answers still owed per ID: how many, and the host-clock time after which none can be told apart */
-  private readonly owed = new Map<number, { count: number; until: number }>();
-  /** wakes a quiet period when the last owed answer of its ID arrives */
+  /** answers each ID may still send, in the order their requests were sent (Stale answers) */
+  private readonly owed = new Map<number, Owed[]>();
+  /** per ID: the last answer seen from it (its bytes) and when (host clock), for the duplicate rule */
+  private readonly lastSeen = new Map<number, { name: string; key: string; at: number }>();
+  /** wakes a quiet period when an owed answer is settled */
   private quietWake: (() => void) | null = null;
   private pending: Pending | null = null;
   private closed: Error | null = null;
@@ -216,6 +251,7 @@ export class Bus {
     return this.exclusive(async () => {
       await this.port.setBaudRate(rate);
       this.owed.clear(); // at another rate a late answer arrives as broken bytes, never as a frame
+      this.lastSeen.clear();
     });
   }
 
@@ -232,10 +268,11 @@ export class Bus {
     }
   }
 
-  /** How many answers an ID still owes (late answers the client will drop), and until when. */
+  /** How many answers an ID still owes (late answers the client will not take), and until when. */
   owedAnswers(id: number): { count: number; until: number } | undefined {
+    this.forgetExpired(this.now());
     const owed = this.owed.get(id);
-    return owed === undefined ? undefined : { ...owed };
+    return owed === undefined ? undefined : { count: owed.length, until: Math.max(...owed.map((o) => o.until)) };
   }
 
   /**
@@ -244,6 +281,12 @@ export class Bus {
    * progress stops waiting (its answer or a busy window) and fails the same way; the commands
    * are written next, without waiting for busy windows (a controller busy writing EEPROM ignores
    * them: verify by reading back and send again). Calls made after it run after it.
+   *
+   * It never waits behind a fence (Stale answers), and that is safe: its commands get no answers,
+   * so nothing owed can be taken for them, and a fence or quiet period in progress is ended like
+   * any other wait. The read-back that verifies the stop is itself a request, queued after the
+   * stop: it is fenced like any other (its ID's owed entries survive the stop) or judged fresh by
+   * the same rule, so a stale answer from before the stop can never confirm it.
    */
   emergency(...commands: Message[]): Promise<void> {
     const frames: Uint8Array[] = [];
@@ -325,6 +368,44 @@ export class Bus {
     return this.exclusive(() => this.transact(request, frame, answer, retries, signal), signal);
   }
 
+  /**
+   * One request to every ID (ID 255), answered by each of `ids` in turn: give them staggered
+   * response times, and `ids` in the order they answer. Outside the document's §17 (requests go
+   * to 0-254), so use it where the controllers answer broadcast requests. Every ID's answer is
+   * owed (docs/protocol.md, Stale answers): an ID that owed an answer of this class to an earlier
+   * call is not taken from the broadcast (its answer only settles), and it and any ID whose answer
+   * is missing are asked on their own, behind a fence. Once the last ID has answered, a missing
+   * one is late and the window does not run out. Returns each ID's answer or its error, in order.
+   */
+  requestBroadcast<N extends RequestName>(
+    request: N,
+    ids: readonly number[],
+    options?: BroadcastOptions,
+  ): Promise<Map<number, AnswerMessageOf<N> | BusError>>;
+  requestBroadcast(
+    request: string,
+    ids: readonly number[],
+    options?: BroadcastOptions,
+  ): Promise<Map<number, Message | BusError>>;
+  requestBroadcast(
+    request: string,
+    ids: readonly number[],
+    options: BroadcastOptions = {},
+  ): Promise<Map<number, Message | BusError>> {
+    let spec: ReturnType<typeof messageSpec>;
+    try {
+      spec = messageSpec(request);
+      if (spec.kind !== "request") throw new BusError(`${request} is a ${spec.kind}, not a request`);
+      for (const id of ids) deviceId("requestBroadcast ids", String(id));
+      if (new Set(ids).size !== ids.length) throw new RangeError("requestBroadcast: an ID is listed twice");
+      if (options.windowMs !== undefined) nonNegative("windowMs", options.windowMs);
+    } catch (err) {
+      return Promise.reject(err);
+    }
+    const signal = options.signal;
+    return this.exclusive(() => this.broadcastRead(spec.name, spec.mode, ids, options.windowMs, signal), signal);
+  }
+
   /** The timeout of one attempt of `request` at the current rate (from the end of the write). */
   timeoutMs(request: Message): number {
     return answerDeadlineMs(
@@ -370,7 +451,8 @@ export class Bus {
   ): Promise<Message> {
     const stopped = this.stopSignal.signal;
     signal = signal === undefined ? stopped : AbortSignal.any([signal, stopped]);
-    await this.quiet(request.id, signal);
+    await this.fence(request.id, answer, signal);
+    await this.duplicateGap(request.id, answer, signal);
     this.stats.requests += 1;
     const timeout = this.timeoutMs(request);
     let failure: Error = new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
@@ -382,40 +464,10 @@ export class Bus {
       }
       await this.waitUntilFree([request.id], signal);
       if (attempt === 0) firstSentAt = this.now();
-      this.parser.clear(); // stale partial bytes from before this request
       const before = { ...this.parser.stats };
-      let settle: (message: Message | null) => void = () => undefined;
-      let fail: (error: unknown) => void = () => undefined;
-      const got = new Promise<Message | null>((resolve, reject) => {
-        settle = resolve;
-        fail = reject;
-      });
-      const pending: Pending = { request, answer, unexpected: [], resolve: (message) => settle(message), fail };
-      got.catch(() => undefined); // a failure before the write has resolved is taken up by `await got` below
-      const abort = (): void => fail(signal?.reason);
-      signal?.addEventListener("abort", abort);
-      if (signal?.aborted) abort();
-      this.pending = pending; // before the write: a fast answer may come before write() resolves
-      let timer: ReturnType<typeof setTimeout> | undefined;
-      let sentAt = 0;
-      try {
-        await this.transmit([request], frame);
-        sentAt = this.now();
-        timer = setTimeout(() => settle(null), timeout); // the deadline counts from the end of the write
-        const message = await got;
-        if (message !== null) {
-          const owed = this.owed.get(request.id);
-          // an earlier attempt of this call is still unanswered: its answer may yet come, and is dropped then
-          if (owed !== undefined) owed.until = Math.max(owed.until, sentAt + timeout + this.lateAnswerMs);
-          return message;
-        }
-      } finally {
-        clearTimeout(timer);
-        signal?.removeEventListener("abort", abort);
-        this.pending = null;
-      }
-      this.owe(request.id, sentAt + timeout + this.lateAnswerMs);
-      this.parser.clear(); // a partial frame left at the timeout counts as unusable bytes
+      const pending: Pending = { request, answer, unexpected: [], resolve: () => undefined, fail: () => undefined };
+      const message = await this.exchange(pending, frame, timeout, signal);
+      if (message !== null) return message;
       const dropped = this.parser.stats.droppedBytes - before.droppedBytes;
       const badChecksum = this.parser.stats.badChecksum - before.badChecksum;
       // the last attempt's failure is reported, in the Python library's order of precedence
@@ -431,39 +483,217 @@ export class Bus {
     throw failure;
   }
 
-  private owe(id: number, until: number): void {
-    const owed = this.owed.get(id);
-    if (owed === undefined) this.owed.set(id, { count: 1, until });
-    else {
-      owed.count += 1;
-      owed.until = Math.max(owed.until, until);
+  /**
+   * One write and the wait for what it asks: `pending.answer` from its ID (taken and returned), or
+   * for a fence, until its ID owes no `pending.fenceFor` answer any more (returns the fence's request).
+   * null: the deadline passed first. The request is owed before the write: a fast answer may come
+   * before write() resolves.
+   */
+  private async exchange(
+    pending: Pending,
+    frame: Uint8Array,
+    timeout: number,
+    signal: AbortSignal,
+    owedEntries?: Owed[],
+  ): Promise<Message | null> {
+    const { request } = pending;
+    let settle: (message: Message | null) => void = () => undefined;
+    let fail: (error: unknown) => void = () => undefined;
+    const got = new Promise<Message | null>((resolve, reject) => {
+      settle = resolve;
+      fail = reject;
+    });
+    pending.resolve = (message) => settle(message);
+    pending.fail = fail;
+    got.catch(() => undefined); // a failure before the write has resolved is taken up by `await got` below
+    const abort = (): void => fail(signal.reason);
+    signal.addEventListener("abort", abort);
+    if (signal.aborted) abort();
+    this.parser.clear(); // stale partial bytes from before this request (a copy's first bytes)
+    const owed = owedEntries ?? [this.owe(request.id, pending.answer, Number.POSITIVE_INFINITY)];
+    this.pending = pending;
+    let timer: ReturnType<typeof setTimeout> | undefined;
+    try {
+      try {
+        await this.transmit([request], frame);
+      } finally {
+        const until = this.now() + timeout + this.lateAnswerMs; // the deadline counts from the end of the write
+        for (const entry of owed) entry.until = until;
+      }
+      timer = setTimeout(() => settle(null), timeout);
+      return await got;
+    } finally {
+      clearTimeout(timer);
+      signal.removeEventListener("abort", abort);
+      if (this.pending === pending) this.pending = null;
+      this.parser.clear(); // a partial frame left at the deadline counts as unusable bytes
     }
   }
 
-  /** A frame nobody asked for now: counted stale; true if it was an answer its ID still owed. */
-  private settleStale(message: Message): boolean {
-    this.stats.staleFrames += 1;
-    const owed = this.owed.get(message.id);
-    if (owed === undefined || messageSpec(message.name).kind === "request") return false;
-    owed.count -= 1;
-    if (owed.count <= 0) {
-      this.owed.delete(message.id);
-      this.quietWake?.();
+  /** Owe an answer of class `answer` from `id`, after everything owed so far. */
+  private owe(id: number, answer: string, until: number): Owed {
+    const owed: Owed = { answer, until };
+    const list = this.owed.get(id);
+    if (list === undefined) this.owed.set(id, [owed]);
+    else list.push(owed);
+    return owed;
+  }
+
+  private forgetExpired(now: number): void {
+    for (const [id, list] of this.owed) {
+      const left = list.filter((o) => o.until > now);
+      if (left.length > 0) this.owed.set(id, left);
+      else this.owed.delete(id);
     }
+  }
+
+  /** May this ID still send an answer of this class to an earlier request? */
+  private owes(id: number, answer: string): boolean {
+    return this.owed.get(id)?.some((o) => o.answer === answer) ?? false;
+  }
+
+  /**
+   * An answer came: it answers the earliest request still owed an answer of its class (or a later
+   * one), and a controller answers in order (A1), so everything owed before that request has come
+   * or never will. True if the ID owed such an answer.
+   */
+  private resolve(message: Message): boolean {
+    const list = this.owed.get(message.id);
+    if (list === undefined) return false;
+    const index = list.findIndex((o) => o.answer === message.name);
+    if (index < 0) return false;
+    list.splice(0, index + 1);
+    if (list.length === 0) this.owed.delete(message.id);
+    this.quietWake?.();
     return true;
   }
 
-  /** Before asking `id`: listen until the answers it still owes came or cannot come any more. */
-  private async quiet(id: number, signal: AbortSignal): Promise<void> {
+  /** `message` is taken as the answer to a request of this call. */
+  private take(message: Message): void {
+    this.resolve(message);
+    this.lastSeen.set(message.id, { name: message.name, key: frameKey(message), at: this.now() });
+  }
+
+  /**
+   * A frame no call takes: counted stale; true if it was an answer some ID still owed, or a copy of
+   * the last answer seen from that ID (a duplicate answers nothing, so it settles nothing).
+   */
+  private settleFrame(message: Message): boolean {
+    this.stats.staleFrames += 1;
+    return this.settle(message);
+  }
+
+  private settle(message: Message): boolean {
+    if (messageSpec(message.name).kind === "request") return false;
+    const last = this.lastSeen.get(message.id);
+    const key = frameKey(message);
+    this.lastSeen.set(message.id, { name: message.name, key, at: this.now() });
+    if (last !== undefined && last.key === key) return true;
+    return this.resolve(message);
+  }
+
+  private async broadcastRead(
+    name: string,
+    mode: number,
+    ids: readonly number[],
+    windowMs: number | undefined,
+    signal?: AbortSignal,
+  ): Promise<Map<number, Message | BusError>> {
+    const stopped = this.stopSignal.signal;
+    signal = signal === undefined ? stopped : AbortSignal.any([signal, stopped]);
+    const answer = answerName(name);
+    const out = new Map<number, Message | BusError>();
+    if (ids.length === 0) return out;
+    const window = windowMs ?? Math.max(...ids.map((id) => this.timeoutMs(make(name, id, {}) as Message)));
+    this.forgetExpired(this.now());
+    // an ID that may still send a late answer of this class cannot be told from its fresh one here
+    const wanted = new Set(ids.filter((id) => !this.owes(id, answer)));
+    for (const id of ids) await this.duplicateGap(id, answer, signal);
+    await this.waitUntilFree([BROADCAST_ID], signal);
+    this.stats.requests += 1;
+    const read: BroadcastRead = { ids, wanted, heard: new Set(), settled: new Set(), answers: new Map() };
+    const request = { name, id: BROADCAST_ID } as Message;
+    const pending: Pending = {
+      request,
+      answer,
+      broadcast: read,
+      unexpected: [],
+      resolve: () => undefined,
+      fail: () => undefined,
+    };
+    // every ID's answer is owed until window + late after the write (exchange sets the time)
+    const owed = ids.map((id) => this.owe(id, answer, Number.POSITIVE_INFINITY));
+    await this.exchange(pending, buildFrame(BROADCAST_ID, mode, new Uint8Array()), window, signal, owed);
+    for (const id of ids) {
+      const got = read.answers.get(id);
+      if (got !== undefined) {
+        out.set(id, got);
+        continue;
+      }
+      const single = make(name, id, {}) as Message;
+      try {
+        // asked on its own, behind a fence: its late answer to the broadcast cannot be taken
+        out.set(id, await this.transact(single, encode(single), answer, this.retries, signal));
+      } catch (err) {
+        if (
+          !(err instanceof NoAnswerError || err instanceof CorruptedAnswerError || err instanceof UnexpectedAnswerError)
+        )
+          throw err;
+        out.set(id, err);
+      }
+    }
+    return out;
+  }
+
+  /**
+   * Before asking `id` for `answer` while it may still send a late one: ask it something whose
+   * answer is of another class. Its answer proves (A1) that the late one came or never will; if no
+   * fence is answered, wait the owed answers out (A3).
+   */
+  private async fence(id: number, answer: string, signal: AbortSignal): Promise<void> {
+    this.forgetExpired(this.now());
+    if (!this.owes(id, answer)) return;
+    const fence = answer === "ping" ? make("request_firmware", id, {}) : make("request_ping", id, {});
+    const frame = encode(fence);
+    const timeout = this.timeoutMs(fence);
+    for (let tries = 0; tries < FENCES; tries++) {
+      this.stats.fences += 1;
+      await this.waitUntilFree([id], signal);
+      const pending: Pending = {
+        request: fence,
+        answer: answerName(fence.name),
+        fenceFor: answer,
+        unexpected: [],
+        resolve: () => undefined,
+        fail: () => undefined,
+      };
+      await this.exchange(pending, frame, timeout, signal);
+      if (!this.owes(id, answer)) return;
+    }
+    await this.quiet(id, answer, signal);
+  }
+
+  /**
+   * A copy of the last answer (a repeating adapter or line, A2) follows it back to back: before
+   * asking the same ID the same thing again, let the copy's first bytes arrive, so the clear before
+   * the request drops them (what is left of the copy can no longer form a frame).
+   */
+  private async duplicateGap(id: number, answer: string, signal: AbortSignal): Promise<void> {
+    const last = this.lastSeen.get(id);
+    if (last === undefined || last.name !== answer) return;
+    const gap = last.at + 2 * wireTimeMs(1, this.port.baudRate);
+    const now = this.now();
+    if (now < gap) await sleep(gap - now, signal);
+  }
+
+  /** After two unanswered fences: listen until the `answer` entries `id` owes came or expired (A3). */
+  private async quiet(id: number, answer: string, signal: AbortSignal): Promise<void> {
     let counted = false;
     for (;;) {
-      const owed = this.owed.get(id);
-      if (owed === undefined) return;
       const now = this.now();
-      if (owed.until <= now) {
-        this.owed.delete(id);
-        return;
-      }
+      this.forgetExpired(now);
+      const waiting = (this.owed.get(id) ?? []).filter((o) => o.answer === answer).map((o) => o.until);
+      if (waiting.length === 0) return;
       if (!counted) {
         this.stats.quietWaits += 1;
         counted = true;
@@ -481,7 +711,7 @@ export class Bus {
           this.quietWake = null;
           reject(signal.reason);
         };
-        const timer = setTimeout(done, owed.until - now);
+        const timer = setTimeout(done, Math.max(...waiting) - now);
         this.quietWake = done;
         signal.addEventListener("abort", aborted, { once: true });
       });
@@ -536,15 +766,42 @@ export class Bus {
     for (const message of this.parser.feed(chunk)) {
       this.onTraffic?.({ direction: "rx", time: Date.now() - this.opened, message });
       const pending = this.pending;
+      const isRequest = messageSpec(message.name).kind === "request";
       if (pending === null) {
-        this.settleStale(message);
+        if (isRequest) this.stats.echoes += 1;
+        else this.settleFrame(message);
+      } else if (pending.broadcast !== undefined) {
+        const read = pending.broadcast;
+        if (isRequest) this.stats.echoes += 1;
+        else if (message.name === pending.answer && read.wanted.has(message.id) && !read.heard.has(message.id)) {
+          this.take(message);
+          read.answers.set(message.id, message);
+          read.heard.add(message.id);
+        } else if (this.settleFrame(message) && read.ids.includes(message.id)) read.settled.add(message.id);
+        const done = new Set([...read.heard, ...read.settled]);
+        // every ID has answered, or the last to answer has: any missing answer is late (left owed)
+        if (done.size >= read.ids.length || done.has(read.ids.at(-1) as number)) {
+          this.pending = null;
+          pending.resolve(message);
+        }
+      } else if (pending.fenceFor !== undefined) {
+        if (message.id === pending.request.id && isRequest) this.stats.echoes += 1;
+        else this.settleFrame(message);
+        if (!this.owes(pending.request.id, pending.fenceFor)) {
+          this.pending = null;
+          pending.resolve(pending.request);
+        }
       } else if (message.id === pending.request.id && message.name === pending.answer) {
+        // the earliest attempt's answer, or a later one's: what is still owed stays owed
+        this.take(message);
+        this.pending = null; // a copy right behind it is judged by the duplicate rule, not taken
         pending.resolve(message);
       } else if (message.id === pending.request.id && message.name === pending.request.name) {
         this.stats.echoes += 1;
-      } else if (this.owed.has(message.id) && messageSpec(message.name).kind !== "request") {
-        this.settleStale(message); // a late answer another ID owed: told apart by its ID, dropped
+      } else if (this.settle(message)) {
+        this.stats.staleFrames += 1;
       } else {
+        // not an answer anyone owes: another controller or program is talking on the bus
         this.stats.unexpectedFrames += 1;
         pending.unexpected.push(message);
       }
@@ -568,6 +825,20 @@ export class Bus {
     this.queue = run.catch(() => undefined);
     return run;
   }
+}
+
+/** fences tried before a request falls back to waiting out the answers its ID owes (as the Python client) */
+const FENCES = 2;
+
+/** An answer an ID may still send: of class `answer`; none is expected after `until` (host clock). */
+interface Owed {
+  answer: string;
+  until: number;
+}
+
+/** The bytes of a frame, as a key: a byte-identical repeat is a possible copy (A2). */
+function frameKey(message: Message): string {
+  return encode(message).join(",");
 }
 
 /** Wait `ms`; an abort of `signal` ends the wait with the signal's reason. */
