@@ -484,7 +484,7 @@ test("the main plot draws every motor's series while three motors move (pixels c
     for (const c of colours) assert.ok(pixels[c] > 400, `every series is drawn as a line: ${JSON.stringify(pixels)}`);
     // the status bar: the bus's frames per second, errors, stale answers and busy waits
     await page.waitForFunction(
-      () => (Number.parseInt(document.querySelector("#bar-frames").textContent.replace(/,/g, "")) || 0) > 100,
+      () => (Number.parseInt(document.querySelector("#bar-frames").textContent.replace(/,/g, ""), 10) || 0) > 100,
     );
     for (const [id, pattern] of [
       ["#bar-rate", /^[\d,]+ readings\/s$/],

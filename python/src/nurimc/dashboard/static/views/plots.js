@@ -54,14 +54,14 @@ export function tickLabels(ticks) {
 export function makePlot(box, { series, height = 260, xLabel, onZoom, onReset }) {
   const units = [...new Set(series.map((s) => s.unit))];
   const axes = [
-    { label: xLabel, values: (u, ticks) => tickLabels(ticks) },
+    { label: xLabel, values: (_u, ticks) => tickLabels(ticks) },
     ...units.map((unit, i) => ({
       scale: UNIT_SCALES[unit] ?? unit,
       label: unit,
       side: i === 0 ? 3 : 1,
       grid: { show: i === 0 },
       size: 56,
-      values: (u, ticks) => tickLabels(ticks),
+      values: (_u, ticks) => tickLabels(ticks),
     })),
   ];
   const scales = { x: { time: false } };
@@ -76,7 +76,7 @@ export function makePlot(box, { series, height = 260, xLabel, onZoom, onReset })
       series: [
         {
           label: t("plot.t"),
-          value: (u, v, sidx, idx) => {
+          value: (u, v, _sidx, idx) => {
             const time = idx == null ? lastValue(u.data[0] ?? []) : v; // the latest, like the other series
             return time == null ? "–" : `${num(time, 2)} s`;
           },
