@@ -23,6 +23,7 @@ from ..protocol import (
     UnknownLineError,
     build_frame,
     line,
+    wire_bytes,
 )
 from ..trafficlog import read_traffic_log
 from .common import STOP, Number, emit, fail, note, open_bus, options, table
@@ -38,7 +39,7 @@ def _describe(message: Message) -> dict[str, Any]:
     return {
         "message": message.name,
         "id": message.id,
-        "hex": message.encode().hex(" ") if _valid(message) else "",
+        "hex": wire_bytes(message).hex(" "),  # as on the wire: a broadcast request too (docs/protocol.md)
         "fields": message.fields(),
         "physical": message.physical(),
     }
@@ -46,10 +47,6 @@ def _describe(message: Message) -> dict[str, Any]:
 
 def _shown(value: object, unit: str) -> str:
     return with_unit(value, unit) if isinstance(value, int | float) else str(value)
-
-
-def _valid(message: Message) -> bool:
-    return all(f.min <= getattr(message, f.name) <= f.max for f in message.SPEC.fields)
 
 
 def _hex_arguments(args: list[str]) -> bytes:
@@ -96,6 +93,8 @@ def decode_(
         if frames and parser.stats.dropped_bytes:
             problems.append(f"{parser.stats.dropped_bytes} bytes are not part of any valid frame")
     rows = table(None, "message", "ID", "field", "wire", "value")
+    if any(m.id == BROADCAST and m.SPEC.max_id != BROADCAST for m in frames):  # docs/protocol.md, Broadcast
+        note("a request to 255 (broadcast): every controller answers it, each after its response time")
     for message in frames:
         physical = message.physical()
         fields: dict[str, int | str] = {**message.fields()} or {"—": ""}

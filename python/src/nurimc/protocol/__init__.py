@@ -19,7 +19,7 @@ from ._tables import (
     PROTOCOL,
     SPECS,
 )
-from .codec import decode, encode, make, make_command, make_request, message_class
+from .codec import decode, encode, make, make_command, make_request, message_class, wire_bytes
 from .errors import (
     DecodeError,
     EncodeError,
@@ -110,4 +110,5 @@ __all__ = [
     "make_request",
     "message_class",
     *_messages.__all__,
+    "wire_bytes",
 ]

@@ -6,7 +6,7 @@ from typing import Any
 
 from ._tables import HEADER, MIN_FRAME_LENGTH
 from .errors import DecodeError, MissingFieldError, UnknownFieldError, UnknownMessageError
-from .frame import CHECKSUM_OFFSET, DATA_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
+from .frame import CHECKSUM_OFFSET, DATA_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET, build_frame
 from .message import Command, Message, Request
 from .messages import BY_MODE, MESSAGES
 
@@ -90,3 +90,15 @@ def decode(frame: bytes | bytearray | memoryview, line: str = "mc") -> Message:
 def decode_valid(cls: type[Message], raw: bytes | bytearray, start: int) -> Message:
     """Decode a frame already checked by the stream parser (no checks repeated)."""
     return cls(raw[start + ID_OFFSET], *cls.SPEC.layout.unpack_from(raw, start + DATA_OFFSET))
+
+
+def wire_bytes(frame: Message) -> bytes:
+    """The frame's bytes exactly as they were on the wire, whatever its values.
+
+    Not `frame.encode()`: that checks the frame as something to send, and refuses what the
+    codec would not send but the bus carried (discovery's broadcast ping, a controller's
+    out-of-range value). The parser took the frame by its size, mode and checksum, and its
+    fields unpack from and pack to the same bytes, so this rebuilds the bytes seen.
+    """
+    spec = frame.SPEC
+    return build_frame(frame.id, spec.mode, spec.layout.pack(*frame[1:]))

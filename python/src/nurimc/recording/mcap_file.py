@@ -20,24 +20,11 @@ from cyclonedds.idl import IdlStruct
 from mcap.writer import CompressionType, Writer
 
 from .. import __version__
-from ..protocol import Message, StreamParser
-from ..protocol.frame import build_frame
+from ..protocol import StreamParser, wire_bytes
 from ..ros2 import msgs
 from .checkpoint import CheckpointStream, checkpoint, finish
 
 FRAMES_TOPIC = "/nurimc/frames"
-
-
-def wire_bytes(frame: Message) -> bytes:
-    """The frame's bytes exactly as they were on the wire, whatever its values.
-
-    Not `frame.encode()`: that checks the frame as something to send, and refuses what the
-    codec would not send but the bus carried (discovery's broadcast ping, a controller's
-    out-of-range value). The parser took the frame by its size, mode and checksum, and its
-    fields unpack from and pack to the same bytes, so this rebuilds the bytes seen.
-    """
-    spec = frame.SPEC
-    return build_frame(frame.id, spec.mode, spec.layout.pack(*frame[1:]))
 
 
 class McapRecorder:
