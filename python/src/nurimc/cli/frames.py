@@ -27,6 +27,7 @@ from ..protocol import (
 )
 from ..trafficlog import read_traffic_log
 from .common import STOP, Number, emit, fail, note, open_bus, options, table
+from .common import note as tell
 
 BROADCAST = 0xFF
 
@@ -94,7 +95,7 @@ def decode_(
             problems.append(f"{parser.stats.dropped_bytes} bytes are not part of any valid frame")
     rows = table(None, "message", "ID", "field", "wire", "value")
     if any(m.id == BROADCAST and m.SPEC.max_id != BROADCAST for m in frames):  # docs/protocol.md, Broadcast
-        note("a request to 255 (broadcast): every controller answers it, each after its response time")
+        tell("a request to 255 (broadcast): every controller answers it, each after its response time")
     for message in frames:
         physical = message.physical()
         fields: dict[str, int | str] = {**message.fields()} or {"—": ""}
