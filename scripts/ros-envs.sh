@@ -36,7 +36,7 @@ install_release() {
     local base
     base=$(basename "$sdist" .tar.gz)
     ls "$dir"/wheels/"${base//-/_}"-*.whl >/dev/null 2>&1 || ls "$dir"/wheels/"$base"-*.whl >/dev/null 2>&1 ||
-      "${pip[@]}" wheel --quiet --no-deps --wheel-dir "$dir/wheels" "$sdist"
+      "${pip[@]}" wheel --quiet --use-pep517 --no-deps --wheel-dir "$dir/wheels" "$sdist"
   done
   "${pip[@]}" install --quiet --no-index --find-links "$dir/wheels" "$@"
   "$dir/venv/bin/python" -c "import rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg, diagnostic_msgs.msg"
