@@ -50,7 +50,8 @@ async function loadPorts() {
     ...answer.ports.map((p) => build("option", { value: p, textContent: p, selected: p === answer.current })),
   );
   $("#bus-baud").value = String(answer.baudrate);
-  setBus("setup.open", { port: answer.current, rate: answer.baudrate });
+  if (dashboard.portDown) setBus("setup.lost", { port: answer.current });
+  else setBus("setup.open", { port: answer.current, rate: answer.baudrate });
 }
 
 export function startSetup() {
