@@ -183,9 +183,13 @@ export function countPixels(page, selector, colours, tolerance = 40) {
  */
 export function startFaultProxy(upstreamPort, link) {
   const python = join(dirname(NURIMC), "python");
-  const child = spawn(python, ["-m", "nurimc.sim.faultproxy", "--upstream", `127.0.0.1:${upstreamPort}`, "--link", link], {
-    stdio: ["ignore", "pipe", "pipe"],
-  });
+  const child = spawn(
+    python,
+    ["-m", "nurimc.sim.faultproxy", "--upstream", `127.0.0.1:${upstreamPort}`, "--link", link],
+    {
+      stdio: ["ignore", "pipe", "pipe"],
+    },
+  );
   let output = "";
   const waiters = [];
   const said = (word) =>

@@ -79,7 +79,11 @@ const offScreen = (p, width) =>
 
 before(async () => {
   mkdirSync(SHOTS, { recursive: true });
-  [sim, otherSim, browser] = await Promise.all([startSimulator("1,2", BAUD), startSimulator("3", BAUD), launchBrowser()]);
+  [sim, otherSim, browser] = await Promise.all([
+    startSimulator("1,2", BAUD),
+    startSimulator("3", BAUD),
+    launchBrowser(),
+  ]);
   [proxy, otherProxy] = await Promise.all([
     startFaultProxy(sim.port, join(dir, "ttyCut")),
     startFaultProxy(otherSim.port, join(dir, "ttyOther")),
@@ -134,7 +138,9 @@ test("cut: 'port lost … reconnecting' with how long, badges not answering; E-S
   assert.match(await page.textContent("#stop-banner-text"), /^STOPPED after the port returned/);
   await page.waitForSelector("#port-banner.hidden", { state: "attached" });
   await page.waitForFunction(() =>
-    [...document.querySelectorAll("#messages .message .text")].some((e) => /port .*ttyCut back after/.test(e.textContent)),
+    [...document.querySelectorAll("#messages .message .text")].some((e) =>
+      /port .*ttyCut back after/.test(e.textContent),
+    ),
   );
   for (const id of [1, 2]) assert.equal(await page.getAttribute(`#motor-${id}`, "data-control"), "off");
   assert.notEqual(await page.getAttribute("#estop", "data-last-result"), "pending");
@@ -159,7 +165,10 @@ test("phone 390x844: the port banner and the pending stop fit on the screen, not
     assert.deepEqual(await offScreen(phone, 390), [], "elements off-screen");
     for (const selector of ["#port-banner", "#stop-banner", "#port-reopen", "#port-choose"]) {
       const box = await phone.locator(selector).boundingBox();
-      assert.ok(box.x >= 0 && box.x + box.width <= 390 && box.y >= 0 && box.y + box.height <= 844, `${selector} on screen`);
+      assert.ok(
+        box.x >= 0 && box.x + box.width <= 390 && box.y >= 0 && box.y + box.height <= 844,
+        `${selector} on screen`,
+      );
     }
     for (const selector of ["#port-reopen", "#port-choose"]) {
       const box = await phone.locator(selector).boundingBox();

@@ -365,9 +365,11 @@ export default {
   "message.noise": "잡음 (프레임이 아닌 바이트)",
   "message.tap error": "기록 오류",
   // the server's port across an outage (views/port.js)
-  "estop.pending": "정지 대기: 포트 끊김 — 비상 정지가 걸려 있습니다 ({time}부터); 포트가 돌아오면 제어 끔을 가장 먼저 보냅니다.",
+  "estop.pending":
+    "정지 대기: 포트 끊김 — 비상 정지가 걸려 있습니다 ({time}부터); 포트가 돌아오면 제어 끔을 가장 먼저 보냅니다.",
   "estop.pendingUntil": "모터를 지금 멈춰야 한다면 전원을 차단하세요.",
-  "estop.doneLatched": "포트가 돌아온 뒤 정지됨 (걸려 있던 비상 정지, {time}): {rates} bps로 제어 끔을 보냈고 모든 모터에서 제어 끔을 다시 읽어 확인했습니다.",
+  "estop.doneLatched":
+    "포트가 돌아온 뒤 정지됨 (걸려 있던 비상 정지, {time}): {rates} bps로 제어 끔을 보냈고 모든 모터에서 제어 끔을 다시 읽어 확인했습니다.",
   "port.lost": "포트 끊김: {port} — 다시 연결하는 중 ({s}초째)",
   "port.back": "포트 복귀: {port} ({s}초 만에) — 모든 모터를 다시 읽는 중",
   "port.reopen": "지금 다시 열기",

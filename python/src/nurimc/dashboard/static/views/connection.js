@@ -7,7 +7,6 @@ import { dashboard, emit, on } from "../core/store.js";
 import { DirectLink } from "../direct-link.js";
 import { ServerLink } from "../server-link.js";
 import { act, ask, say, sayError } from "./messages.js";
-import { setStopPending, watchPort } from "./port.js";
 import {
   addSamples,
   markStopped,
@@ -17,6 +16,7 @@ import {
   setMotors,
   showProgress,
 } from "./motors.js";
+import { setStopPending, watchPort } from "./port.js";
 
 const ESTOP_RECEIPT_MS = 1000; // the server confirms it got the stop at once; no receipt by then is an alarm
 

@@ -413,7 +413,7 @@ function refreshCard(motor, at) {
   if (motor.control) motor.card.dataset.control = motor.control;
   const age = motor.lastSampleAt == null ? null : at - motor.lastSampleAt;
   motor.stats.textContent = t("motors.stats", {
-    rate: num(motor.rate.perSecond, 0),
+    rate: num(state === "silent" ? 0 : motor.rate.perSecond, 0), // not the last second it answered in
     errors: motor.errors,
     age: age == null ? "–" : num(age * 1000, 0),
   });

@@ -17,7 +17,8 @@ dashboard.stopPending = null; // { message, at }: an emergency stop latched by t
 export function setStopPending(message) {
   const was = dashboard.stopPending;
   dashboard.stopPending = message ? { message, at: was?.at ?? new Date() } : null;
-  if (Boolean(was) !== Boolean(message) || (message && was?.message !== message)) emit("stop-pending", dashboard.stopPending);
+  if (Boolean(was) !== Boolean(message) || (message && was?.message !== message))
+    emit("stop-pending", dashboard.stopPending);
 }
 
 function take(message) {
@@ -61,7 +62,8 @@ function onPort(message) {
         motor.card.dataset.control = "off";
       }
     }
-    if (message.stopped?.length) say(t("port.turningStopped", { list: message.stopped.map((id) => `ID ${id}`).join(", ") }));
+    if (message.stopped?.length)
+      say(t("port.turningStopped", { list: message.stopped.map((id) => `ID ${id}`).join(", ") }));
     for (const [id, read] of Object.entries(message.states ?? {}))
       if (read.error) sayError(t("port.notReadAgain", { id }), read.error);
   }

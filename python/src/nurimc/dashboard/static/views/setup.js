@@ -66,7 +66,8 @@ export function startSetup() {
   on("port", (port) => {
     // while lost: Open with the same port tries it again at once; another path opens that one
     if (port.phase === "lost") setBus("setup.lost", { port: port.port || "?" });
-    else if (busKey?.[0] === "setup.lost") setBus("setup.open", { port: port.port || "?", rate: dashboard.busRate ?? "?" });
+    else if (busKey?.[0] === "setup.lost")
+      setBus("setup.open", { port: port.port || "?", rate: dashboard.busRate ?? "?" });
   });
   $("#setup-motor").onchange = updateResetPhrase;
   $("#reset-confirm").oninput = updateResetPhrase;
