@@ -175,6 +175,16 @@ test("phone 390x844: the port banner and the pending stop fit on the screen, not
       assert.ok(box.height >= 40 && box.width >= 40, `${selector} is a 40 px target`);
     }
     await phone.screenshot({ path: join(SHOTS, "phone-port-lost.png") });
+    // in Korean: the same banners in the vendor's words, still on the screen
+    await phone.evaluate(() => window.dashboard.setLanguage("ko"));
+    try {
+      assert.match(await phone.textContent("#port-banner-text"), /^포트 끊김: .*ttyCut — 다시 연결하는 중/);
+      assert.match(await phone.textContent("#stop-banner-text"), /^정지 대기: 포트 끊김/);
+      assert.equal(await phone.textContent("#motor-1 .state"), "응답 없음");
+      assert.deepEqual(await offScreen(phone, 390), [], "elements off-screen (Korean)");
+    } finally {
+      await phone.evaluate(() => window.dashboard.setLanguage("en")); // the pick is remembered by the browser
+    }
   } finally {
     await phone.close();
   }
