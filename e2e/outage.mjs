@@ -112,6 +112,7 @@ test("cut: 'port lost … reconnecting' with how long, badges not answering; E-S
     [1, 2].every((id) => document.querySelector(`#motor-${id} .state`).textContent === "not answering"),
   );
   assert.equal(await page.getAttribute("#motor-1", "data-state"), "silent");
+  assert.equal(await page.textContent("#status"), "server connected · port lost");
   assert.match(await page.getAttribute("#motor-1 .state", "title"), /port is lost/);
   // the page can still ask: a command is refused at once with the reason, in words
   await page.locator("#motor-2").getByRole("button", { name: "Hold" }).click();
@@ -146,6 +147,7 @@ test("cut: 'port lost … reconnecting' with how long, badges not answering; E-S
   assert.notEqual(await page.getAttribute("#estop", "data-last-result"), "pending");
   assert.deepEqual(JSON.parse(await page.getAttribute("#estop", "data-last-result")), { 1: "off", 2: "off" });
   assert.deepEqual(await controls(page), { 1: "off", 2: "off" }, "read back from the motors");
+  assert.equal(await page.textContent("#status"), "connected");
   // fresh readings again: the badges say stopped, not "not answering"
   await page.waitForFunction(() =>
     [1, 2].every((id) => document.querySelector(`#motor-${id}`).dataset.state === "stopped"),

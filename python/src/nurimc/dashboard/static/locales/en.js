@@ -12,6 +12,7 @@ export default {
   "mode.direct": "direct · Web Serial",
   "status.starting": "starting…",
   "status.connected": "connected",
+  "status.portLost": "server connected · port lost",
   "status.notConnected": "not connected",
   "status.noBundle": "direct mode needs nurimc.browser.js next to this page (see docs/dashboard.md)",
   "status.noWebSerial":

@@ -12,6 +12,7 @@ export default {
   "mode.direct": "직접 연결 · Web Serial",
   "status.starting": "시작하는 중…",
   "status.connected": "연결됨",
+  "status.portLost": "서버 연결됨 · 포트 끊김",
   "status.notConnected": "연결 안 됨",
   "status.noBundle": "직접 연결 모드에는 이 페이지 옆에 nurimc.browser.js 파일이 필요합니다 (docs/dashboard.md 참고)",
   "status.noWebSerial":

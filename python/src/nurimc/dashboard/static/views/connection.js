@@ -301,6 +301,12 @@ export function startConnection() {
     dashboard.stopped = false;
     showStopBanner();
   };
+  on("port", (port) => {
+    // the server is there but its bus is not: say so where "connected" would be
+    if (!dashboard.connected) return;
+    setStatus(port.phase === "lost" ? "status.portLost" : "status.connected");
+    $("#status").dataset.connected = port.phase === "lost" ? "port-lost" : "yes";
+  });
   on("stop-pending", (pending) => {
     if (pending) $("#estop").dataset.lastResult = "pending";
     showStopBanner();
