@@ -14,7 +14,16 @@ const CHROMIUM = process.env.CHROMIUM_BIN ?? "/usr/bin/chromium";
 
 /** `nurimc dashboard --sim` on a free port; resolves with its URL once it prints `ready:`. */
 export function startDashboard(extra = []) {
-  const child = spawn(NURIMC, ["dashboard", "--sim", "--listen", "127.0.0.1:0", ...extra], {
+  return serveDashboard(["dashboard", "--sim", "--listen", "127.0.0.1:0", ...extra]);
+}
+
+/** `nurimc --port PORT --baud RATE dashboard` (a real port, reopened by itself when lost) on a free port. */
+export function startPortDashboard(port, baud = 115200) {
+  return serveDashboard(["--port", port, "--baud", String(baud), "dashboard", "--listen", "127.0.0.1:0"]);
+}
+
+function serveDashboard(args) {
+  const child = spawn(NURIMC, args, {
     stdio: ["ignore", "pipe", "pipe"],
   });
   let output = "";
@@ -165,4 +174,69 @@ export function countPixels(page, selector, colours, tolerance = 40) {
     },
     { selector, colours, tolerance },
   );
+}
+
+/**
+ * The adapter that drops out: `python -m nurimc.sim.faultproxy` serving a pty (a symlink at
+ * `link`) in front of a simulator's TCP port. cut() and restore() signal it (SIGUSR1, SIGUSR2)
+ * and resolve once it has printed that it did so.
+ */
+export function startFaultProxy(upstreamPort, link) {
+  const python = join(dirname(NURIMC), "python");
+  const child = spawn(
+    python,
+    ["-m", "nurimc.sim.faultproxy", "--upstream", `127.0.0.1:${upstreamPort}`, "--link", link],
+    {
+      stdio: ["ignore", "pipe", "pipe"],
+    },
+  );
+  let output = "";
+  const waiters = [];
+  const said = (word) =>
+    new Promise((resolve, reject) => {
+      const count = output.split("\n").filter((line) => line.split(" ")[1] === word).length;
+      waiters.push({ word, count, resolve, reject });
+    });
+  const check = () => {
+    for (const w of [...waiters]) {
+      if (output.split("\n").filter((line) => line.split(" ")[1] === w.word).length > w.count) {
+        waiters.splice(waiters.indexOf(w), 1);
+        w.resolve();
+      }
+    }
+  };
+  const proxy = {
+    link,
+    child,
+    cut: () => {
+      const done = said("cut");
+      child.kill("SIGUSR1");
+      return done;
+    },
+    restore: () => {
+      const done = said("restored");
+      child.kill("SIGUSR2");
+      return done;
+    },
+    stop: () => child.kill("SIGTERM"),
+  };
+  return new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`faultproxy did not start in 30 s:\n${output}`)), 30000);
+    child.stdout.on("data", (chunk) => {
+      output += chunk;
+      if (/ ready /.test(output)) {
+        clearTimeout(timer);
+        resolve(proxy);
+      }
+      check();
+    });
+    child.stderr.on("data", (chunk) => {
+      output += chunk;
+    });
+    child.on("exit", (code) => {
+      clearTimeout(timer);
+      for (const w of waiters) w.reject(new Error(`faultproxy exited with ${code}:\n${output}`));
+      reject(new Error(`faultproxy exited with ${code}:\n${output}`));
+    });
+  });
 }

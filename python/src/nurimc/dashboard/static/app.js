@@ -9,6 +9,7 @@ import { setStatus, startConnection, startLink } from "./views/connection.js";
 import { startMainPlot } from "./views/mainplot.js";
 import { say } from "./views/messages.js";
 import { startMotors } from "./views/motors.js";
+import { startPort } from "./views/port.js";
 import { startRaw } from "./views/raw.js";
 import { startSequence } from "./views/sequence.js";
 import { startSettings } from "./views/settings.js";
@@ -47,6 +48,7 @@ function startLanguageSwitch() {
 startLanguage();
 startLanguageSwitch();
 startConnection();
+startPort();
 startMotors();
 startMainPlot();
 startSettings();

@@ -116,7 +116,9 @@ export class ServerLink {
       this.generation = message.generation;
       this.emit("open", message);
     }
-    if (message.type === "estop" && message.generation > this.generation) this.generation = message.generation;
+    // a stop carried out, or latched while the port is lost: either way a new generation
+    if ((message.type === "estop" || message.type === "estop_pending") && message.generation > this.generation)
+      this.generation = message.generation;
     this.emit(message.type, message);
   }
 

@@ -104,6 +104,9 @@ export function startLanguage() {
 // ---- errors the server (or the TS library) sends in English, shown in the page's language ----
 // Each rule: a pattern of the library's English message and the catalog key that says it.
 const ERROR_RULES = [
+  [/^stop pending/i, "err.stopPending"],
+  [/cannot reopen/i, "err.cannotReopen"],
+  [/^port \S+ is lost|port lost/i, "err.portLost"],
   [/before emergency stop/i, "err.beforeStop"],
   [/cancelled by an emergency stop|cancelled/i, "err.cancelled"],
   [/^busy: /i, "err.busyQueue"],

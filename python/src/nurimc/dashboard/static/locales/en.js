@@ -12,6 +12,7 @@ export default {
   "mode.direct": "direct · Web Serial",
   "status.starting": "starting…",
   "status.connected": "connected",
+  "status.portLost": "server connected · port lost",
   "status.notConnected": "not connected",
   "status.noBundle": "direct mode needs nurimc.browser.js next to this page (see docs/dashboard.md)",
   "status.noWebSerial":
@@ -364,4 +365,31 @@ export default {
   "message.firmware": "firmware answer",
   "message.noise": "noise (bytes, no frame)",
   "message.tap error": "capture error",
+  // the server's port across an outage (views/port.js)
+  "estop.pending":
+    "stop pending: port lost — the emergency stop is latched (since {time}); control off is the first frame sent when the port returns.",
+  "estop.pendingUntil": "If the motors must stop now, cut their power.",
+  "estop.doneLatched":
+    "STOPPED after the port returned (latched emergency stop, {time}): control off sent at {rates} bps and read back off for every motor.",
+  "port.lost": "port lost: {port} — reconnecting (down {s} s)",
+  "port.back": "port back: {port} after {s} s — reading every motor again",
+  "port.reopen": "Reopen now",
+  "port.reopenTitle": "Try the same port again at once instead of waiting for the next retry",
+  "port.choose": "Another port…",
+  "port.resumed": "port {port} back after {s} s: every motor read again",
+  "port.turningStopped": "stopped when the port returned (they were turning by Run): {list}; press Run again to go on",
+  "port.notReadAgain": "ID {id} not read after the port returned",
+  "port.opened": "opened {port}: discover the motors on it",
+  "port.closed":
+    "the console stopped with port {port} lost: the emergency stop was never carried out; cut the motors' power",
+  "setup.lost": "port lost: {port}. Open tries it again at once; or type another path and Open",
+  "setup.path": "or path",
+  "setup.pathPlaceholder": "a path not in the list",
+  "setup.pathTitle":
+    "A port the list does not show (a /dev/serial/by-id name, a pty): opened instead of the one picked",
+  "motors.staleTitle": "no fresh reading: the values shown are the last ones",
+  "motors.staleTitlePort": "the port is lost: the values shown are from before",
+  "err.stopPending": "stop pending: port lost; the stop is sent first when the port returns",
+  "err.portLost": "the port is lost and being reopened: nothing was sent",
+  "err.cannotReopen": "cannot reopen the port yet: still retrying in the background",
 };

@@ -12,6 +12,7 @@ export default {
   "mode.direct": "직접 연결 · Web Serial",
   "status.starting": "시작하는 중…",
   "status.connected": "연결됨",
+  "status.portLost": "서버 연결됨 · 포트 끊김",
   "status.notConnected": "연결 안 됨",
   "status.noBundle": "직접 연결 모드에는 이 페이지 옆에 nurimc.browser.js 파일이 필요합니다 (docs/dashboard.md 참고)",
   "status.noWebSerial":
@@ -364,4 +365,29 @@ export default {
   "message.firmware": "펌웨어 버전 피드백",
   "message.noise": "잡음 (프레임이 아닌 바이트)",
   "message.tap error": "기록 오류",
+  // the server's port across an outage (views/port.js)
+  "estop.pending":
+    "정지 대기: 포트 끊김 — 비상 정지가 걸려 있습니다 ({time}부터); 포트가 돌아오면 제어 끔을 가장 먼저 보냅니다.",
+  "estop.pendingUntil": "모터를 지금 멈춰야 한다면 전원을 차단하세요.",
+  "estop.doneLatched":
+    "포트가 돌아온 뒤 정지됨 (걸려 있던 비상 정지, {time}): {rates} bps로 제어 끔을 보냈고 모든 모터에서 제어 끔을 다시 읽어 확인했습니다.",
+  "port.lost": "포트 끊김: {port} — 다시 연결하는 중 ({s}초째)",
+  "port.back": "포트 복귀: {port} ({s}초 만에) — 모든 모터를 다시 읽는 중",
+  "port.reopen": "지금 다시 열기",
+  "port.reopenTitle": "다음 재시도를 기다리지 않고 같은 포트를 바로 다시 엽니다",
+  "port.choose": "다른 포트…",
+  "port.resumed": "포트 {port} 복귀 ({s}초 만에): 모든 모터를 다시 읽었습니다",
+  "port.turningStopped": "포트가 돌아올 때 정지함 (회전 중이었음): {list}; 계속하려면 회전을 다시 누르세요",
+  "port.notReadAgain": "포트 복귀 후 아이디 {id}를 읽지 못함",
+  "port.opened": "{port} 열림: 이 포트의 모터를 검색하세요",
+  "port.closed": "포트 {port}가 끊긴 채로 콘솔이 끝났습니다: 비상 정지를 보내지 못했습니다; 모터 전원을 차단하세요",
+  "setup.lost": "포트 끊김: {port}. 열기를 누르면 바로 다시 시도합니다; 다른 경로를 입력하고 열 수도 있습니다",
+  "setup.path": "또는 경로",
+  "setup.pathPlaceholder": "목록에 없는 포트 경로",
+  "setup.pathTitle": "목록에 없는 포트 경로: 고른 포트 대신 이 경로를 엽니다",
+  "motors.staleTitle": "새 측정값 없음: 보이는 값은 마지막 값입니다",
+  "motors.staleTitlePort": "포트 끊김: 보이는 값은 끊기기 전의 값입니다",
+  "err.stopPending": "정지 대기: 포트 끊김; 포트가 돌아오면 정지를 가장 먼저 보냅니다",
+  "err.portLost": "포트가 끊겨 다시 여는 중입니다: 아무것도 보내지 않았습니다",
+  "err.cannotReopen": "포트를 아직 다시 열 수 없습니다: 백그라운드에서 계속 시도합니다",
 };

@@ -16,6 +16,7 @@ import {
   setMotors,
   showProgress,
 } from "./motors.js";
+import { setStopPending, watchPort } from "./port.js";
 
 const ESTOP_RECEIPT_MS = 1000; // the server confirms it got the stop at once; no receipt by then is an alarm
 
@@ -120,6 +121,7 @@ export async function startLink() {
     setConnected(false, ["banner.connecting"]);
     const link = new ServerLink(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
     useLink(link);
+    watchPort(link);
     link.on("open", onHello);
     link.on("closed", (m) => {
       dashboard.lostReason = m.reason ?? "";
@@ -205,6 +207,12 @@ async function emergencyStop() {
   try {
     await dashboard.link.request("estop");
   } catch (error) {
+    if (/^stop pending/i.test(error.message)) {
+      // the port is lost: the server latched the stop and sends it first when the port returns
+      button.dataset.lastResult = "pending";
+      setStopPending(error.message);
+      return;
+    }
     button.dataset.lastResult = "failed";
     estopAlarm("estop.failed", { why: serverError(error.message).text });
   }
@@ -223,7 +231,9 @@ function showEstop(m) {
   const entries = Object.entries(m.control);
   const bad = entries.filter(([, control]) => control !== "off");
   dashboard.stopped = { at: new Date(), rates: m.rates, bad };
+  if (m.latched) dashboard.stopped.latched = true;
   showStopBanner();
+  if (m.latched) setStopPending(null); // carried out on the returned port and read back
   $("#estop").dataset.lastResult = JSON.stringify(m.control);
   $("#estop").dataset.rates = m.rates.join(",");
   if (dashboard.connected && !bad.length) $("#banner").classList.add("hidden"); // a late answer replaces a "not confirmed" alarm
@@ -231,8 +241,17 @@ function showEstop(m) {
 
 function showStopBanner() {
   const stop = dashboard.stopped;
+  const pending = dashboard.stopPending;
   const box = $("#stop-banner");
-  box.classList.toggle("hidden", !stop);
+  box.classList.toggle("hidden", !stop && !pending);
+  box.classList.toggle("pending", Boolean(pending));
+  box.dataset.state = pending ? "pending" : stop ? "done" : "";
+  $("#stop-banner-close").classList.toggle("hidden", Boolean(pending)); // persistent until the server confirms it
+  $("#stop-banner-until").textContent = t(pending ? "estop.pendingUntil" : "estop.until");
+  if (pending) {
+    $("#stop-banner-text").textContent = t("estop.pending", { time: clock(pending.at) });
+    return;
+  }
   if (!stop) return;
   box.classList.toggle("bad", stop.bad.length > 0);
   $("#stop-banner-text").textContent = stop.bad.length
@@ -240,7 +259,7 @@ function showStopBanner() {
         rates: stop.rates.join(", "),
         list: stop.bad.map(([id, c]) => `ID ${id} (${serverError(c).text})`).join(", "),
       })
-    : t("estop.done", { rates: stop.rates.join(", "), time: clock(stop.at) });
+    : t(stop.latched ? "estop.doneLatched" : "estop.done", { rates: stop.rates.join(", "), time: clock(stop.at) });
 }
 
 // ---- status bar -----------------------------------------------------------------------------
@@ -282,6 +301,16 @@ export function startConnection() {
     dashboard.stopped = false;
     showStopBanner();
   };
+  on("port", (port) => {
+    // the server is there but its bus is not: say so where "connected" would be
+    if (!dashboard.connected) return;
+    setStatus(port.phase === "lost" ? "status.portLost" : "status.connected");
+    $("#status").dataset.connected = port.phase === "lost" ? "port-lost" : "yes";
+  });
+  on("stop-pending", (pending) => {
+    if (pending) $("#estop").dataset.lastResult = "pending";
+    showStopBanner();
+  });
   on("command", () => {
     if (!dashboard.stopped) return;
     dashboard.stopped = false; // a new command: the stop is over

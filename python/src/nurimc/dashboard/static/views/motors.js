@@ -398,17 +398,22 @@ function refreshCard(motor, at) {
   const s = motor.series;
   const last = s.t.length - 1;
   motor.rate.perSecond = readingsPerSecond(s.t);
-  const state = motorState({ ...motor, speed: last >= 0 ? s.speed[last] : null }, at);
+  const state = motorState(
+    { ...motor, speed: last >= 0 ? s.speed[last] : null, portDown: dashboard.mode === "server" && dashboard.portDown },
+    at,
+  );
   if (state !== motor.shownState) {
     motor.shownState = state;
     motor.badge.textContent = t(`state.${state}`);
     motor.badge.className = `state state-${state}`;
     motor.card.dataset.state = state;
+    motor.card.classList.toggle("stale", state === "silent"); // the readings shown are the last ones, not now
+    motor.badge.title = state === "silent" ? t(dashboard.portDown ? "motors.staleTitlePort" : "motors.staleTitle") : "";
   }
   if (motor.control) motor.card.dataset.control = motor.control;
   const age = motor.lastSampleAt == null ? null : at - motor.lastSampleAt;
   motor.stats.textContent = t("motors.stats", {
-    rate: num(motor.rate.perSecond, 0),
+    rate: num(state === "silent" ? 0 : motor.rate.perSecond, 0), // not the last second it answered in
     errors: motor.errors,
     age: age == null ? "–" : num(age * 1000, 0),
   });

@@ -64,11 +64,7 @@ function render() {
       ),
     );
   const heads = [...document.querySelectorAll("#raw-table thead th")].map((th) => th.textContent);
-  for (const row of rows) {
-    [...row.children].forEach((cell, i) => {
-      cell.dataset.label = heads[i];
-    });
-  }
+  for (const row of rows) for (const [i, cell] of [...row.children].entries()) cell.dataset.label = heads[i];
   $("#raw-table tbody").replaceChildren(...rows);
 }
 

@@ -3,7 +3,7 @@ import { $, build } from "../core/dom.js";
 import { onLanguage, serverError, t } from "../core/i18n.js";
 import { readNumber } from "../core/input.js";
 import { BAUD_RATES, DEFAULT_BAUD, MAX_ID } from "../core/limits.js";
-import { dashboard, on } from "../core/store.js";
+import { dashboard, emit, on } from "../core/store.js";
 import { act, ask } from "./messages.js";
 
 let textKey = null;
@@ -50,13 +50,25 @@ async function loadPorts() {
     ...answer.ports.map((p) => build("option", { value: p, textContent: p, selected: p === answer.current })),
   );
   $("#bus-baud").value = String(answer.baudrate);
-  setBus("setup.open", { port: answer.current, rate: answer.baudrate });
+  if (dashboard.portDown) setBus("setup.lost", { port: answer.current });
+  else setBus("setup.open", { port: answer.current, rate: answer.baudrate });
 }
 
 export function startSetup() {
   fillBauds();
   on("motors", refreshMotorSelects);
   on("hello", (hello) => setBus("setup.open", { port: hello.port || "?", rate: hello.baudrate }));
+  on("bus-opened", (answer) => {
+    dashboard.busRate = answer.baudrate;
+    setBus("setup.open", { port: answer.port, rate: answer.baudrate });
+    if (dashboard.view === "setup") loadPorts().catch(() => {});
+  });
+  on("port", (port) => {
+    // while lost: Open with the same port tries it again at once; another path opens that one
+    if (port.phase === "lost") setBus("setup.lost", { port: port.port || "?" });
+    else if (busKey?.[0] === "setup.lost")
+      setBus("setup.open", { port: port.port || "?", rate: dashboard.busRate ?? "?" });
+  });
   $("#setup-motor").onchange = updateResetPhrase;
   $("#reset-confirm").oninput = updateResetPhrase;
   $("#change-id").onclick = act(
@@ -94,8 +106,11 @@ export function startSetup() {
     () => t("op.open_bus"),
     async () => {
       try {
-        const answer = await ask("open_bus", { port: $("#bus-port").value, baudrate: Number($("#bus-baud").value) });
-        setBus("setup.open", { port: answer.port, rate: answer.baudrate });
+        // a typed path wins over the list (a pty, a /dev/serial/by-id name the list does not show)
+        const port = $("#bus-path").value.trim() || $("#bus-port").value;
+        const answer = await ask("open_bus", { port, baudrate: Number($("#bus-baud").value) });
+        $("#bus-path").value = "";
+        emit("bus-opened", answer);
       } catch (error) {
         setBus("setup.notOpened", { why: serverError(error.message).text }); // said beside the picker, not only in a message
         throw error;
