@@ -11,7 +11,7 @@ import typer
 
 from ..errors import InputError, PortLost
 from ..inputs import UNIT_SHOWN, field_value, integer, json_document, number, show, with_unit
-from ..outage import OutageGuard, stderr_line
+from ..outage import OutageGuard
 from ..protocol import (
     ALL_LINES,
     SPECS,
@@ -24,7 +24,7 @@ from ..protocol import (
     build_frame,
     line,
 )
-from .common import STOP, Number, emit, fail, note, open_bus, options, table
+from .common import STOP, Number, emit, fail, note, open_bus, options, say_line, table
 
 BROADCAST = 0xFF
 
@@ -176,7 +176,7 @@ def sniff(
     parser, seen = StreamParser(line=_line(line_name).key), []
     start = time.monotonic()
     with open_bus(o, reconnect=True) as bus:
-        outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
+        outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each on stderr
         try:
             while not duration or time.monotonic() - start < duration:
                 try:
