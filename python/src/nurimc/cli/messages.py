@@ -1,7 +1,8 @@
 """The English texts the CLI translates (nurimc.cli.i18n), listed once.
 
 PATTERNS are templates of lines the CLI prints: a line is translated as the first template it
-matches, each `{field}` standing for any text (itself translated in turn). Keep the specific
+matches, each `{field}` standing for any text (itself translated in turn), except `{line}`: a
+line number, digits only. Keep the specific
 before the generic. MESSAGES are whole texts (table headers, causes). CLICK_TEXTS are click's
 own words in its help pages, looked up by click through gettext. Each has its Korean in
 `locale/ko/LC_MESSAGES/nurimc.po` (context "cli" for PATTERNS and MESSAGES); a test fails when
@@ -22,15 +23,15 @@ PATTERNS: tuple[str, ...] = (
     "unknown product line {value}; lines: {lines}",
     "unknown product {value}; products: {products}",
     "--product: {value} is not a product; use one of {choices}",
-    "unknown message {name} in the {line} line; messages: {names}",
+    "unknown message {name} in the {title} line; messages: {names}",
     "ID {id} at {baud} bps answers none of the questions that tell product lines apart (or does not answer): give --product ({products})",
     "ID {id} is an SM whose table is not known: {what} needs {name}, whose code the vendor's two SM tables disagree on (C# 01-05, README 03/05; under the C# table the README's 03 is 'set ID'); give --product sm-cs or sm-readme (bus.motor(id, 'sm-cs')) once you know which it speaks",
     "ID {id} is an {title}, a speed-only motor: it has no position commands ({what}); use run() or release()",
     "ID {id} is an {title}: the {title2} line has no {name} ({what}); nothing was sent",
     "ID {id} is an {title}: its line has no {name}; nothing was sent",
-    "{name} of the {line} line cannot go to a controller of the {other} line: mode {mode} means something else there; use {other2}'s own {name2} (mode {mode2})",
-    "{name} of the {line} line cannot go to a controller of the {other} line: mode {mode} means something else there; {other2} has no {name2}",
-    "ID {id} at {baud} bps: {line} ({product})",
+    "{name} of the {title} line cannot go to a controller of the {other} line: mode {mode} means something else there; use {other2}'s own {name2} (mode {mode2})",
+    "{name} of the {title} line cannot go to a controller of the {other} line: mode {mode} means something else there; {other2} has no {name2}",
+    "ID {id} at {baud} bps: {title} ({product})",
     "{value} (0.1° steps, from speed feedback)",
     "{value} (signed, CCW +)",
     "{reason}; {rate} bps skipped",
@@ -78,6 +79,27 @@ PATTERNS: tuple[str, ...] = (
     "--motor {text}: write ID@RATE or ID@RATE:PRODUCT, e.g. 3@57600 or 7@57600:rsa",
     "--motor {text}: unknown product {product}; use one of {choices}",
     "the bus call took longer than {seconds} s and was abandoned",
+    # the ROS 2 bridge's options (nurimc ros2, nurimc record): refused before DDS is touched
+    "--wheel-radius/--wheel-separation need --diff-drive LEFT_ID,RIGHT_ID",
+    "--diff-drive {text}: give two different IDs, left then right (e.g. 1,2)",
+    "--diff-drive needs --wheel-radius M and --wheel-separation M",
+    "--diff-drive: give two different IDs (left,right)",
+    "--diff-drive: ID {id} is not among the bridge's motors ({ids})",
+    "--max-linear/--max-angular: the wheels would need more than the controller's {rpm} RPM ({speed} m/s at this wheel radius)",
+    "{name} {value}: give a number > 0",
+    "command timeout {value}: give seconds >= 0 (0 = off)",
+    "frame id {value}: give a name without a leading '/'",
+    "--node-name {value}: give letters, digits and '_' (not starting with a digit, at most {n} characters)",
+    "{option} {value}: give a topic name such as robot_joint_commands or /robot_joint_commands",
+    "{option} {value}: part {part} must be letters, digits and '_' and not start with a digit",
+    "namespace {value}: must not end with '/'",
+    "namespace {value}: longer than {n} characters",
+    "namespace {value}: empty part ('//')",
+    "--joint-names gives {n} names for {m} motors: give one per ID",
+    "--joint-names: a name is empty",
+    "--joint-names: the names must differ",
+    # a line of a file ({line} is a line number: digits only, nurimc.cli.i18n)
+    "{where} line {line}: {problem}",
     "{name}: {value} is not a number (ASCII digits only); give {wanted}",
     "{name}: {value} is not a finite number; give {wanted}",
     "{name}: {value} is not a whole number; give {wanted}",
