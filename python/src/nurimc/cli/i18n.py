@@ -34,9 +34,9 @@ from .messages import CONTEXT, PATTERNS
 DOMAIN = "nurimc"
 LOCALE_DIR = str(Path(__file__).with_name("locale"))
 FIELD = re.compile(r"\{(\w+)\}")
-#: fields that are a number (a file's line number): a template such as "{where} line {line}" must not
+#: fields that are a number (a file's line number, a count): a template such as "{where} line {line}" must not
 #: take "Expecting value: line 1 column 1" or "the RSA line has no ..." for one
-NUMBERED = frozenset({"line"})
+NUMBERED = frozenset({"line", "count"})
 DIGITS = r"\d+"
 
 

@@ -1,8 +1,8 @@
 """The English texts the CLI translates (nurimc.cli.i18n), listed once.
 
 PATTERNS are templates of lines the CLI prints: a line is translated as the first template it
-matches, each `{field}` standing for any text (itself translated in turn), except `{line}`: a
-line number, digits only. Keep the specific
+matches, each `{field}` standing for any text (itself translated in turn), except `{line}` and
+`{count}`: numbers, digits only. Keep the specific
 before the generic. MESSAGES are whole texts (table headers, causes). CLICK_TEXTS are click's
 own words in its help pages, looked up by click through gettext. Each has its Korean in
 `locale/ko/LC_MESSAGES/nurimc.po` (context "cli" for PATTERNS and MESSAGES); a test fails when
@@ -56,11 +56,13 @@ PATTERNS: tuple[str, ...] = (
     "looking for controllers at {baud} bps",
     "no --ids: looking for controllers at {baud} bps...",
     "ready: recording {topic} and {frames} to {path} (Ctrl-C ends)",
+    "wrote {target}: {n} messages kept; {torn} stopped at {problem}",
     "wrote {path}: {n} frames from {source}",
     "wrote {path}: {counts}",
+    "{count} on {topic}",
+    "the {name} setting",
     "the recording stopped early: {error} (the file is complete up to then)",
     "{torn} was complete; copied {n} messages to {target}",
-    "wrote {target}: {n} messages kept; {torn} stopped at {problem}",
     "a record cut short or broken after {n} messages ({why})",
     "{target}: write the repaired file to another path than the torn one",
     "{source} is not an MCAP file ({why})",

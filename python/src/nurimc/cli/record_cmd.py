@@ -122,7 +122,7 @@ def record(
     finally:
         bus.close()
         recorder.close()
-    counts = ", ".join(f"{n} on {t}" for t, n in sorted(recorder.counts.items()))
+    counts = ", ".join(tr(f"{n} on {t}") for t, n in sorted(recorder.counts.items()))
     out.print(tr(f"wrote {mcap_path}: {counts or tr('no messages')}"), soft_wrap=True, markup=False)
     if port_error:
         fail(f"the recording stopped early: {port_error[0]} (the file is complete up to then)", EXIT_DEVICE)
