@@ -269,7 +269,7 @@ def watch(
 
         def stream() -> None:
             for row in read_all():
-                sys.stdout.write("\t".join(row) + "\n")
+                sys.stdout.write("\t".join(tr(cell) for cell in row) + "\n")  # as a table's cells
             sys.stdout.flush()
 
         # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag), from
