@@ -105,6 +105,12 @@ def note(message: str) -> None:
     err.print(Text.assemble((tr("note:"), "yellow"), " ", one_line(tr(one_line(message)))), soft_wrap=True)
 
 
+def say_line(text: str) -> None:
+    """A long-running tool's line about its port (lost, back, not stopped: nurimc.outage), in the
+    language in use."""
+    print(tr(text), file=sys.stderr, flush=True)
+
+
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
     say_error(message)
     raise typer.Exit(code)

@@ -8,8 +8,8 @@ import socket
 import typer
 
 from ..client.sync import Bus
-from ..outage import OutageGuard, stderr_line
-from .common import EXIT_USAGE, fail, open_bus, options, out
+from ..outage import OutageGuard
+from .common import EXIT_USAGE, fail, open_bus, options, out, say_line
 
 
 def dashboard(
@@ -76,13 +76,13 @@ def dashboard(
         bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, port=port_name, on_ready=ready
     )
     server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **uvicorn_options()))
-    outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each
+    outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each
     try:
         server.run(sockets=[sock])
     finally:
         lost = outage.port_lost_at_exit()
         if lost:
-            stderr_line(lost)
+            say_line(lost)
         bus.close()
         if sim_bus is not None:
             sim_bus.close()

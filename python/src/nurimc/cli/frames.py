@@ -11,7 +11,7 @@ import typer
 
 from ..errors import InputError, PortLost
 from ..inputs import UNIT_SHOWN, field_value, integer, with_unit
-from ..outage import OutageGuard, stderr_line
+from ..outage import OutageGuard
 from ..protocol import (
     ALL_LINES,
     SPECS,
@@ -26,7 +26,7 @@ from ..protocol import (
     wire_bytes,
 )
 from ..trafficlog import read_traffic_log
-from .common import STOP, Number, emit, fail, note, open_bus, options, table
+from .common import STOP, Number, emit, fail, note, open_bus, options, say_line, table
 from .common import note as tell
 
 BROADCAST = 0xFF
@@ -176,7 +176,7 @@ def sniff(
     parser, seen = StreamParser(line=_line(line_name).key), []
     start = time.monotonic()
     with open_bus(o, reconnect=True) as bus:
-        outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
+        outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each on stderr
         try:
             while not duration or time.monotonic() - start < duration:
                 try:

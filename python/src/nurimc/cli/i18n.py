@@ -34,6 +34,10 @@ from .messages import CONTEXT, PATTERNS
 DOMAIN = "nurimc"
 LOCALE_DIR = str(Path(__file__).with_name("locale"))
 FIELD = re.compile(r"\{(\w+)\}")
+#: fields that are a number (a file's line number, a count): a template such as "{where} line {line}" must not
+#: take "Expecting value: line 1 column 1" or "the RSA line has no ..." for one
+NUMBERED = frozenset({"line", "count"})
+DIGITS = r"\d+"
 
 
 def catalog() -> gettext.NullTranslations:
@@ -49,7 +53,9 @@ def _(message: str) -> str:
 @cache
 def _pattern(template: str) -> re.Pattern[str]:
     parts = FIELD.split(template)
-    regex = "".join(re.escape(p) if i % 2 == 0 else f"(?P<{p}>.*?)" for i, p in enumerate(parts))
+    regex = "".join(
+        re.escape(p) if i % 2 == 0 else f"(?P<{p}>{DIGITS if p in NUMBERED else '.*?'})" for i, p in enumerate(parts)
+    )
     return re.compile(regex + r"\Z", re.DOTALL)
 
 

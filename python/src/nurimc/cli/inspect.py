@@ -21,7 +21,7 @@ from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
 from ..journal import RestoreJournal, incomplete_message
 from ..motor import MotorState
-from ..outage import OutageGuard, stderr_line
+from ..outage import OutageGuard
 from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
 from ..settings import SETTINGS
@@ -39,6 +39,7 @@ from .common import (
     options,
     out,
     parse_ids,
+    say_line,
     stop_flag,
     table,
 )
@@ -204,7 +205,7 @@ def status(ctx: typer.Context) -> None:
         settings = motor.read_settings()
     unfinished = RestoreJournal(o.port or os.environ.get("NURIMC_PORT", "")).pending(device_id)
     if unfinished is not None:  # the settings below are part old, part restored (docs/cli.md)
-        err.print(f"warning: {incomplete_message(unfinished)}", soft_wrap=True, markup=False)
+        err.print(f"{tr('warning:')} {tr(incomplete_message(unfinished))}", soft_wrap=True, markup=False)
     line = motor.procedures.line
     product = motor.procedures.profile.key
     rows = table(f"ID {device_id} at {o.baud} bps: {line.title} ({product})", "reading", "value")
@@ -247,7 +248,7 @@ def watch(
     readings: list[dict[str, Any]] = []
     with open_bus(o, reconnect=True) as bus:
         motors = [motor_for(bus, o, i, acts=False) for i in o.ids]
-        outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each; every reading is fresh anyway
+        outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each; every reading is fresh anyway
 
         def read_all() -> list[tuple[str, ...]]:
             rows: list[tuple[str, ...]] = []
@@ -268,7 +269,7 @@ def watch(
 
         def stream() -> None:
             for row in read_all():
-                sys.stdout.write("\t".join(row) + "\n")
+                sys.stdout.write("\t".join(tr(cell) for cell in row) + "\n")  # as a table's cells
             sys.stdout.flush()
 
         # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag), from

@@ -9,8 +9,9 @@ from pathlib import Path
 import typer
 
 from ..errors import NurimcError, PortLost
-from ..outage import OutageGuard, stderr_line
-from .common import EXIT_DEVICE, Number, fail, options, out
+from ..outage import OutageGuard
+from .common import EXIT_DEVICE, Number, fail, options, out, say_line
+from .i18n import tr
 from .ros2_cmd import RATE, SECONDS
 
 CHECKPOINT = Number("--checkpoint", 0.05, 60, "s")
@@ -62,7 +63,7 @@ def record(
         from ..sigrok import convert_to_mcap
 
         counts = convert_to_mcap(source, mcap_path)
-        out.print(f"wrote {mcap_path}: {counts} frames from {source}", soft_wrap=True)
+        out.print(tr(f"wrote {mcap_path}: {counts} frames from {source}"), soft_wrap=True, markup=False)
         return
     from ..group import read_states
     from ..recording.mcap_file import FRAMES_TOPIC, McapRecorder
@@ -94,12 +95,16 @@ def record(
         except ValueError as error:
             fail(str(error))
         procedures = [bus.motor(i, o.product if o.product_given else None).procedures for i in motor_list]
-        out.print(f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} (Ctrl-C ends)", soft_wrap=True)
+        out.print(
+            tr(f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} (Ctrl-C ends)"),
+            soft_wrap=True,
+            markup=False,
+        )
 
         def loop() -> None:
             period = 1.0 / rate if rate else 0.0
             next_read = time.monotonic()
-            outage = OutageGuard(bus.transport, stderr_line)  # lost and back: one line each on stderr
+            outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each on stderr
             lost_since: float | None = None
             while not stop.is_set():
                 try:
@@ -133,8 +138,8 @@ def record(
     finally:
         bus.close()
         recorder.close()
-    counts = ", ".join(f"{n} on {t}" for t, n in sorted(recorder.counts.items()))
-    out.print(f"wrote {mcap_path}: {counts or 'no messages'}", soft_wrap=True)
+    counts = ", ".join(tr(f"{n} on {t}") for t, n in sorted(recorder.counts.items()))
+    out.print(tr(f"wrote {mcap_path}: {counts or tr('no messages')}"), soft_wrap=True, markup=False)
     if port_error:
         fail(f"the recording stopped early: {port_error[0]} (the file is complete up to then)", EXIT_DEVICE)
 
@@ -160,10 +165,13 @@ def repair_mcap(
     except ValueError as error:
         fail(str(error))
     if result.complete:
-        out.print(f"{torn} was complete; copied {result.messages} messages to {target}", soft_wrap=True)
+        complete = f"{torn} was complete; copied {result.messages} messages to {target}"
+        out.print(tr(complete), soft_wrap=True, markup=False)
     else:
         out.print(
-            f"wrote {target}: {result.messages} messages kept; {torn} stopped at {result.problem}", soft_wrap=True
+            tr(f"wrote {target}: {result.messages} messages kept; {torn} stopped at {result.problem}"),
+            soft_wrap=True,
+            markup=False,
         )
 
 

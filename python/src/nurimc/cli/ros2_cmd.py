@@ -13,6 +13,7 @@ import typer
 
 from ..client.sync import Bus
 from .common import EXIT_DEVICE, FramePrinter, Number, Options, err, fail, options, out, parse_ids
+from .i18n import tr
 from .motion import RAMP
 
 # Every number is checked when the options are read, before the extra, the port or DDS is touched.
@@ -77,7 +78,7 @@ def motor_ids(o: Options, ids_text: str | None, bus: Bus) -> list[int]:
         return ids
     from ..discovery import discover
 
-    err.print(f"no --ids: looking for controllers at {bus.baudrate} bps...")
+    err.print(tr(f"no --ids: looking for controllers at {bus.baudrate} bps..."))
     found = bus.run(discover(bus.core, [bus.baudrate]))
     if not found:
         fail(

@@ -130,12 +130,12 @@ def _motors_on_bus(bus: Bus, o: Options) -> list[Motor]:
         return [motor_for(bus, o, i, acts=False) for i in o.ids]
     columns = (TextColumn("{task.description}"), TimeElapsedColumn())
     with Progress(*columns, console=err, disable=o.json, transient=True) as bar:  # discovery takes seconds: live
-        task = bar.add_task(f"looking for controllers at {o.baud} bps", total=None)
+        task = bar.add_task(tr(f"looking for controllers at {o.baud} bps"), total=None)
 
         def show(event: object) -> None:
             if isinstance(event, ScanProgress):
                 at = f", ID {event.walking_id}" if event.walking_id is not None else ""
-                bar.update(task, description=f"{o.baud} bps{at}: {len(event.found)} found")
+                bar.update(task, description=tr(f"{o.baud} bps{at}: {len(event.found)} found"))
 
         found = bus.run(discover(bus.core, [o.baud]), on_note=show)
     if not found:
@@ -186,14 +186,17 @@ def restore_journal(o: Options, ids: list[int], file: str) -> RestoreJournal:
     target = str(Path(file).resolve())
     for earlier in sorted({p for p in map(journal.pending, ids) if p is not None}):
         then = "completing it now" if earlier == target else f"restoring {file} instead replaces it"
-        err.print(f"note: {incomplete_message(earlier)}; {then}", soft_wrap=True, markup=False)
+        err.print(f"{tr('note:')} {tr(f'{incomplete_message(earlier)}; {then}')}", soft_wrap=True, markup=False)
     try:
         journal.begin(ids, file)
     except OSError as error:  # a read-only home: the restore still runs, unguarded, and says so
         journal.enabled = False
+        unguarded = (
+            f"cannot keep a restore journal in {journal.directory} ({error.strerror or error}): "
+            "an interruption will not be detected; set NURIMC_STATE_DIR to a writable folder"
+        )
         err.print(
-            f"warning: cannot keep a restore journal in {journal.directory} ({error.strerror or error}): "
-            "an interruption will not be detected; set NURIMC_STATE_DIR to a writable folder",
+            f"{tr('warning:')} {tr(unguarded)}",
             soft_wrap=True,
             markup=False,
         )
