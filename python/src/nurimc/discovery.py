@@ -91,6 +91,7 @@ def _confirm(
     the answers still owed are settled by the stale-answer rule (core.ask's fences): an answer
     names it, garbled bytes again make it a collision, silence clears it. The walked ID is asked
     first; a collision there explains the bytes, and the others are not asked."""
+    yield from core.wait_out([walked, *earlier], Firmware)  # one wait for all: no fence per ID
     for device_id in [walked, *earlier]:
         if device_id in heard:
             continue
@@ -163,9 +164,10 @@ def discover(
             found[first:] = sorted(found[first:], key=lambda f: f.id)
         result = []
         for f in found:  # firmware tells the user what answered; also confirms a find of the broadcast
-            if f.firmware is None or (lines and not f.collision):
+            # a collision was asked alone already (_confirm): it garbled again
+            if not f.collision and (f.firmware is None or lines):
                 yield from core.set_baud(f.baudrate)
-            if f.firmware is None:
+            if f.firmware is None and not f.collision:
                 try:
                     answer = yield from core.ask(RequestFirmware(f.id))
                     f = Found(f.id, f.baudrate, answer.fields()["version"], f.collision)
