@@ -11,7 +11,8 @@ whole frame once one has: the walk runs at the wire floor (one request plus the 
 in which an answer would have started, per ID; benchmarks/wire_bench.py). A late answer
 still names its ID, so it is found wherever it turns up; garbled bytes in the walk name
 nobody, so the IDs that may have sent them are asked alone before anything is reported
-(_confirm). Rates are tried most likely first. Discovery never writes a setting: only pings and firmware requests go out.
+(_confirm). Rates are tried most likely first. Discovery never writes a setting: only pings
+and firmware requests go out.
 The vendor's tool pings every ID at every rate, 60 ms per try: 20-30 minutes.
 """
 
