@@ -9,8 +9,10 @@ response time, adapter), so each request of the walk (a firmware request: as sho
 ping, and its answer says the firmware) waits only until an answer would have begun, and a
 whole frame once one has: the walk runs at the wire floor (one request plus the shortest wait
 in which an answer would have started, per ID; benchmarks/wire_bench.py). A late answer
-still names its ID, so it is found wherever it turns up. Rates are tried most
-likely first. Discovery never writes a setting: only pings and firmware requests go out.
+still names its ID, so it is found wherever it turns up; garbled bytes in the walk name
+nobody, so the IDs that may have sent them are asked alone before anything is reported
+(_confirm). Rates are tried most likely first. Discovery never writes a setting: only pings
+and firmware requests go out.
 The vendor's tool pings every ID at every rate, 60 ms per try: 20-30 minutes.
 """
 
@@ -19,12 +21,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from .client.actions import Note, Procedure
+from .client.actions import Note, Now, Procedure
 from .client.core import BusCore
 from .client.timing import MAX_RESPONSE_TIME
-from .errors import NoAnswer, RateRefused, UnexpectedAnswer
+from .errors import CorruptedAnswer, NoAnswer, RateRefused, UnexpectedAnswer
 from .products import detect_line
-from .protocol import BAUD_RATES, RequestFirmware, RequestPing
+from .protocol import BAUD_RATES, Firmware, RequestFirmware, RequestPing
 from .protocol.host import DISCOVERY_RATE_ORDER
 
 # Most likely first: the default, then the usual fast rates, then the rest (spec/host.json).
@@ -74,6 +76,41 @@ def walk_wait(core: BusCore, span: float | None) -> float:
     return max(span - timing.wire_time(PING_LENGTH, rate), 0.0) + 2 * char + timing.latency
 
 
+def _owing(core: BusCore, probed: list[int], heard: set[int]) -> Procedure[list[int]]:
+    """The IDs walked before whose answers may still be on the way (docs/protocol.md, Stale
+    answers: owed until deadline + late), latest first: garbled bytes are theirs or the walked ID's."""
+    core.forget_expired((yield Now()))
+    return [i for i in reversed(probed) if i not in heard and core.owes(i, Firmware)]
+
+
+def _confirm(
+    core: BusCore, rate: int, walked: int, earlier: list[int], heard: set[int], found: list[Found]
+) -> Procedure[None]:
+    """Garbled bytes came while `walked` was probed: answers on top of each other. They are the
+    walked ID's (several controllers share it) or late answers of IDs walked before it that
+    overlapped on the wire (a TCP serial server's jitter can hold a request back until the next
+    one: both reach the bus together). Each suspect is asked alone, with the full deadline, once
+    the answers still owed are settled by the stale-answer rule (core.ask's fences): an answer
+    names it, garbled bytes again make it a collision, silence clears it. The walked ID is asked
+    first; a collision there explains the bytes, and the others are not asked."""
+    yield from core.wait_out([walked, *earlier], Firmware)  # one wait for all: no fence per ID
+    for device_id in [walked, *earlier]:
+        if device_id in heard:
+            continue
+        try:
+            answer = yield from core.ask(RequestFirmware(device_id))
+        except CorruptedAnswer:
+            heard.add(device_id)
+            found.append(Found(device_id, rate, None, collision=True))
+            if device_id == walked:
+                return
+        except (NoAnswer, UnexpectedAnswer):
+            continue
+        else:
+            heard.add(device_id)
+            found.append(Found(device_id, rate, answer.fields()["version"]))
+
+
 def discover(
     core: BusCore,
     rates: Iterable[int] | None = None,
@@ -103,11 +140,14 @@ def discover(
                 answers, dropped = yield from core.broadcast_ask(RequestPing, window, start_within=begun)
                 heard = {a.id for a in answers}
                 garbled, span = dropped > 0, core.broadcast_span
+            first = len(found)  # this rate's finds start here
             for device_id in sorted(heard):
                 found.append(Found(device_id, rate, None))
             if not garbled:
                 continue
             start_within = walk_wait(core, span)
+            probed: list[int] = []
+            garbles: list[tuple[int, list[int]]] = []  # (walked ID, earlier IDs still owing an answer)
             for device_id in id_list:
                 if device_id in heard:
                     continue
@@ -118,14 +158,18 @@ def discover(
                     if answer.id not in heard:
                         heard.add(answer.id)
                         found.append(Found(answer.id, rate, answer.fields()["version"]))
-                if device_id not in heard and collided:
-                    heard.add(device_id)
-                    found.append(Found(device_id, rate, None, collision=True))
+                if collided:
+                    garbles.append((device_id, (yield from _owing(core, probed, heard))))
+                probed.append(device_id)
+            for device_id, earlier in garbles:
+                yield from _confirm(core, rate, device_id, earlier, heard, found)
+            found[first:] = sorted(found[first:], key=lambda f: f.id)
         result = []
         for f in found:  # firmware tells the user what answered; also confirms a find of the broadcast
-            if f.firmware is None or (lines and not f.collision):
+            # a collision was asked alone already (_confirm): it garbled again
+            if not f.collision and (f.firmware is None or lines):
                 yield from core.set_baud(f.baudrate)
-            if f.firmware is None:
+            if f.firmware is None and not f.collision:
                 try:
                     answer = yield from core.ask(RequestFirmware(f.id))
                     f = Found(f.id, f.baudrate, answer.fields()["version"], f.collision)

@@ -268,6 +268,12 @@ class BusCore:
                 return
         yield from self._quiet([device_id], kind)
 
+    def wait_out(self, ids: Iterable[int], kind: type[Message] | None = None) -> Procedure[None]:
+        """Listen until the answers these IDs still owe (of `kind`, or any) came or cannot come
+        (docs/protocol.md, Stale answers, A3): afterwards none of them can answer a new request
+        with an old answer, and asking them needs no fence."""
+        yield from self._quiet(list(ids), kind)
+
     def _quiet(self, ids: Iterable[int], kind: type[Message] | None = None) -> Procedure[None]:
         """Listen until the answers these IDs still owe (of `kind`, or any) came or cannot come."""
         if not self._owed:

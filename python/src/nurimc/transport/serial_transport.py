@@ -8,6 +8,7 @@ import errno
 import logging
 import os
 import select
+import socket
 import time
 from typing import Any, Literal, overload
 
@@ -144,6 +145,19 @@ class SerialTransport:
         self.port.close()
 
 
+def _no_delay(port: Any) -> None:
+    """Send each write at once on a TCP port (socket://, rfc2217://: a serial server such as
+    ser2net, the simulator's --tcp). pyserial leaves Nagle's algorithm on, which holds a small
+    write back until the previous one is acknowledged; a request that gets no answer is acked
+    only after the peer's delayed-ack timer (40 ms on Linux), so the requests written meanwhile
+    reach the bus back to back in one segment and their answers collide (discovery's ID walk
+    found a phantom ID where two controllers' answers overlapped)."""
+    sock = getattr(port, "_socket", None)
+    if isinstance(sock, socket.socket) and sock.family in (socket.AF_INET, socket.AF_INET6):
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+
 @overload
 def open_transport(
     url: str,
@@ -193,6 +207,7 @@ def open_transport(
         if "protocol" in str(err) and "not known" in str(err):
             raise PortError(f"{url}: unknown port scheme {scheme}://; known: {', '.join(known_schemes())}") from err
         raise _port_error(url, err) from err
+    _no_delay(port)
     direction = None
     if direction_options is not None:
         try:
