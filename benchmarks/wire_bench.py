@@ -22,6 +22,8 @@
      begin (they do, garbled), then every ID asked once, each request followed by the
      shortest wait in which an answer would have started (the controllers' response time
      plus one character), plus the rest of each controller's answer (firmware, 7 bytes).
+   Every controller found is then asked its product line once (issue 27: `AB` answered names an
+   MC; a request of 6 bytes and an answer of 7, plus its response time), in the floor too.
    Discovery must be within 1.5x the floor (goal) while staying live (progress notes).
 4. A port that refuses 250000 and 76800 bps: the scan goes on (one note per refused rate).
 
@@ -207,10 +209,11 @@ def floor_of_rate(rate: int, controllers: int) -> float:
     silence = chars(6, rate) + max(MAX_RESPONSE_TIME + chars(1, rate), RESPONSE + chars(6, rate) * controllers)
     if controllers == 0:
         return silence
+    line_question = controllers * (chars(6 + 7, rate) + RESPONSE)  # each found one's product line (AB -> DB)
     if controllers == 1:
-        return silence + chars(6 + 7, rate) + RESPONSE
+        return silence + chars(6 + 7, rate) + RESPONSE + line_question
     walk = 255 * (chars(6, rate) + RESPONSE + chars(1, rate)) + controllers * chars(7 - 1, rate)
-    return chars(6, rate) + RESPONSE + chars(1, rate) + walk
+    return chars(6, rate) + RESPONSE + chars(1, rate) + walk + line_question
 
 
 def discovery(n: int, all_rates: bool, seed: int) -> dict[str, Any]:
