@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from ._tables import HEADER, MIN_FRAME_LENGTH
@@ -66,7 +67,11 @@ def decode(frame: bytes | bytearray | memoryview, line: str = "mc") -> Message:
         from .lines import line as line_named
 
         return line_named(line).decode(frame)
-    raw = bytes(frame)
+    return decode_with(bytes(frame), BY_MODE)
+
+
+def decode_with(raw: bytes, by_mode: Mapping[int, type[Message]]) -> Message:
+    """decode() with a given mode table (a product line's); DecodeError names the first failing check."""
     if raw[:2] != HEADER[: len(raw[:2])]:
         raise DecodeError("header", f"frame must start with FF FE, got {raw[:2].hex(' ').upper()}")
     if len(raw) < MIN_FRAME_LENGTH or len(raw) < raw[SIZE_OFFSET] + 4:
@@ -77,7 +82,7 @@ def decode(frame: bytes | bytearray | memoryview, line: str = "mc") -> Message:
     expected = ~sum(raw[ID_OFFSET:CHECKSUM_OFFSET] + raw[MODE_OFFSET:]) & 0xFF
     if raw[CHECKSUM_OFFSET] != expected:
         raise DecodeError("checksum", f"checksum is {raw[CHECKSUM_OFFSET]:02X}, the bytes give {expected:02X}")
-    cls = BY_MODE.get(raw[MODE_OFFSET])
+    cls = by_mode.get(raw[MODE_OFFSET])
     if cls is None:
         raise DecodeError("unknown_mode", f"unknown mode {raw[MODE_OFFSET]:02X}")
     if size != cls.SPEC.size:

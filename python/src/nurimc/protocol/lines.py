@@ -20,15 +20,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._lines import LINES, PRODUCT_LINES
+from .codec import decode_with
 from .errors import (
-    DecodeError,
     MissingFieldError,
     UnknownFieldError,
     UnknownLineError,
     UnknownMessageError,
     WrongLineError,
 )
-from .frame import CHECKSUM_OFFSET, DATA_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
 from .message import Answer, Command, Message, Request, field_getter
 from .messages import BY_MODE, MESSAGES
 from .schema import Kind, LineSpec, MessageSpec
@@ -151,28 +150,6 @@ class Line:
         if name is None:
             raise ValueError(f"{request.SPEC.name} is not a request; commands are never answered")
         return self.classes[name]
-
-
-def decode_with(raw: bytes, by_mode: Mapping[int, type[Message]]) -> Message:
-    """decode() with a given mode table; DecodeError names the first failing check."""
-    if raw[:2] != b"\xff\xfe"[: len(raw[:2])]:
-        raise DecodeError("header", f"frame must start with FF FE, got {raw[:2].hex(' ').upper()}")
-    if len(raw) < 6 or len(raw) < raw[SIZE_OFFSET] + 4:
-        raise DecodeError("truncated", f"frame is truncated ({len(raw)} bytes)")
-    size = raw[SIZE_OFFSET]
-    if len(raw) > size + 4:
-        raise DecodeError("trailing", f"{len(raw) - size - 4} bytes after the frame (size byte says {size})")
-    expected = ~sum(raw[ID_OFFSET:CHECKSUM_OFFSET] + raw[MODE_OFFSET:]) & 0xFF
-    if raw[CHECKSUM_OFFSET] != expected:
-        raise DecodeError("checksum", f"checksum is {raw[CHECKSUM_OFFSET]:02X}, the bytes give {expected:02X}")
-    cls = by_mode.get(raw[MODE_OFFSET])
-    if cls is None:
-        raise DecodeError("unknown_mode", f"unknown mode {raw[MODE_OFFSET]:02X}")
-    if size != cls.SPEC.size:
-        raise DecodeError(
-            "size", f"{cls.SPEC.name} (mode {cls.SPEC.mode:02X}) has size {cls.SPEC.size}, frame says {size}"
-        )
-    return cls(raw[ID_OFFSET], *cls.SPEC.layout.unpack_from(raw, DATA_OFFSET))
 
 
 def _build() -> dict[str, Line]:

@@ -171,17 +171,7 @@ class Bridge:
             raise self._refuse(error) from None
         actions: list[Action] = []
         for joint, rad_s in zip(self.joints, data, strict=True):
-            rpm = round(rad_s_to_rpm(rad_s), 1)
-            joint.commanded_at = now
-            if abs(rpm) < MIN_RPM:
-                if joint.mode not in ("held", "released", "idle"):
-                    actions.append(Hold(joint.id))
-                    joint.mode = "held"
-                continue
-            if joint.mode != "velocity" or rpm != joint.rpm or now - joint.sent_at >= RESEND_SAME:
-                actions.append(Run(joint.id, rpm, self.ramp))
-                joint.sent_at = now
-            joint.mode, joint.rpm = "velocity", rpm
+            actions += velocity_actions(joint, rad_s, now, self.ramp)
         return actions
 
     def estop(self, engaged: bool, now: float) -> list[Action]:
@@ -311,3 +301,22 @@ def _text(value: object) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     return str(value)
+
+
+def velocity_actions(joint: Joint, rad_s: float, now: float, ramp: float) -> list[Action]:
+    """What a velocity command for one joint sends (velocity_commands and the ros2_control topic
+    alike): a speed under MIN_RPM holds the joint once; a speed runs it, resent when it changes or
+    every RESEND_SAME seconds. Notes the command's time for the command timeout."""
+    rpm = round(rad_s_to_rpm(rad_s), 1)
+    joint.commanded_at = now
+    if abs(rpm) < MIN_RPM:
+        if joint.mode in ("held", "released", "idle"):
+            return []
+        joint.mode = "held"
+        return [Hold(joint.id)]
+    actions: list[Action] = []
+    if joint.mode != "velocity" or rpm != joint.rpm or now - joint.sent_at >= RESEND_SAME:
+        actions.append(Run(joint.id, rpm, ramp))
+        joint.sent_at = now
+    joint.mode, joint.rpm = "velocity", rpm
+    return actions

@@ -31,7 +31,7 @@ from typing import Any
 
 from ..motor import POSITION_LIMIT
 from . import msgs
-from .bridge import MAX_RPM, MIN_RPM, RESEND_SAME, Action, Bridge, Hold, MoveTo, Refused, Run
+from .bridge import MAX_RPM, MIN_RPM, RESEND_SAME, Action, Bridge, MoveTo, Refused, velocity_actions
 from .convert import rad_s_to_rpm, rad_to_deg
 
 DEFAULT_COMMANDS_TOPIC = "/robot_joint_commands"
@@ -123,17 +123,7 @@ class JointCommands:
                     self._last_move[joint.id] = (degrees, rpm, now)
                 joint.mode = "position"
             elif rad_s is not None:
-                rpm = round(rad_s_to_rpm(rad_s), 1)
-                joint.commanded_at = now
-                if abs(rpm) < MIN_RPM:
-                    if joint.mode not in ("held", "released", "idle"):
-                        actions.append(Hold(joint.id))
-                        joint.mode = "held"
-                    continue
-                if joint.mode != "velocity" or rpm != joint.rpm or now - joint.sent_at >= RESEND_SAME:
-                    actions.append(Run(joint.id, rpm, bridge.ramp))
-                    joint.sent_at = now
-                joint.mode, joint.rpm = "velocity", rpm
+                actions += velocity_actions(joint, rad_s, now, bridge.ramp)
         return actions
 
 
