@@ -21,6 +21,7 @@ import rich.table
 import typer
 from rich.console import Console
 from rich.text import Text
+from typer.core import TyperCommand
 
 from ..client.sync import Bus
 from ..errors import InputError
@@ -291,3 +292,25 @@ def table(title: str | None, *columns: str) -> Table:
     for column in columns:
         t.add_column(tr(column))
     return t
+
+
+_SIGNED_VALUE = re.compile(r"-[0-9.]")
+
+
+class SignedValuesCommand(TyperCommand):
+    """A command whose values may be negative numbers (`move -90`, `set ratio -5`): a word that
+    starts with '-' and a digit or a point is a value, never a cluster of short options, so
+    `set control -0h` is the value -0h (refused as a value), not -0 and -h (help, exit 0)."""
+
+    def make_parser(self, ctx: Any) -> Any:  # typer's own click Context
+        parser = super().make_parser(ctx)
+        process_options = parser._process_opts
+
+        def values_first(arg: str, state: Any) -> None:
+            if _SIGNED_VALUE.match(arg):
+                state.largs.append(arg)
+                return
+            process_options(arg, state)
+
+        setattr(parser, "_process_opts", values_first)  # noqa: B010 - click has no hook for this
+        return parser

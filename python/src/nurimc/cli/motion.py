@@ -9,7 +9,18 @@ import typer
 from ..errors import InputError
 from ..inputs import number
 from ..protocol.host import LIMITS
-from .common import InputBadParameter, Number, Options, emit, fail, motor_for, one_id, open_bus, options
+from .common import (
+    InputBadParameter,
+    Number,
+    Options,
+    SignedValuesCommand,
+    emit,
+    fail,
+    motor_for,
+    one_id,
+    open_bus,
+    options,
+)
 
 POSITION = LIMITS["position_deg"]
 RPM_MIN, RPM_MAX = LIMITS["speed_rpm_min"], LIMITS["speed_rpm_max"]
@@ -156,8 +167,8 @@ def hold(ctx: typer.Context) -> None:
 
 
 def register(app: typer.Typer) -> None:
-    app.command(context_settings=NUMBERS_FIRST)(move)
-    app.command(context_settings=NUMBERS_FIRST)(run)
+    app.command(cls=SignedValuesCommand, context_settings=NUMBERS_FIRST)(move)
+    app.command(cls=SignedValuesCommand, context_settings=NUMBERS_FIRST)(run)
     app.command()(release)
     app.command()(stop)
     app.command()(hold)

@@ -25,6 +25,7 @@ from .common import (
     EXIT_DEVICE,
     EXIT_OK,
     Options,
+    SignedValuesCommand,
     check_baud,
     emit,
     err,
@@ -231,7 +232,9 @@ def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", h
 
 def register(app: typer.Typer) -> None:
     app.command()(get)
-    app.command(name="set", context_settings={"ignore_unknown_options": True})(set_)  # `set ratio -5`: a value
+    app.command(name="set", cls=SignedValuesCommand, context_settings={"ignore_unknown_options": True})(
+        set_
+    )  # `set ratio -5`: a value
     app.command()(backup)
     app.command()(restore)
     app.command(name="factory-reset")(factory_reset)

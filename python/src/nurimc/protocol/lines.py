@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._lines import LINES, PRODUCT_LINES
-from .codec import decode_with
+from .decoding import decode_with
 from .errors import (
     MissingFieldError,
     UnknownFieldError,
