@@ -227,6 +227,10 @@ def page(spec: dict[str, Any], settings: list[dict[str, Any]]) -> str:
         "retries": timing["retries"],
         "retryPauseMs": round(timing["retry_pause_s"] * 1000, 6),
     }
+    page_stop = {
+        "verifyMs": round(rules["stop"]["verify_s"] * 1000, 6),
+        "recheckMs": round(rules["stop"]["recheck_s"] * 1000, 6),
+    }
     profiles = {name: {"busyWindowMs": round(p["busy_window_s"] * 1000, 6)} for name, p in rules["profiles"].items()}
     page_limits = _camel_keys({k: v for k, v in limits.items() if k != "source"})
     lines = [
@@ -238,6 +242,8 @@ def page(spec: dict[str, Any], settings: list[dict[str, Any]]) -> str:
         f"export const LIMITS = Object.freeze({json.dumps(page_limits)});",
         f"export const HOST_TIMING = Object.freeze({json.dumps(page_timing)});",
         f"export const PROFILES = Object.freeze({json.dumps(profiles)});",
+        "// the one emergency stop's read-back window (docs/service.md), as the server's",
+        f"export const HOST_STOP = Object.freeze({json.dumps(page_stop)});",
         "",
     ]
     return "\n".join(lines)

@@ -43,6 +43,12 @@ export interface HostProfile {
 export const HOST_PROFILES: Readonly<Record<string, HostProfile>> = {"mc": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}, "blmc-h": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 40, "position_ki": 0, "position_kd": 15, "speed_kp": 25, "speed_ki": 8, "speed_kd": 0, "rated_current": 80}}, "rsa": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}, "rsavw": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}, "sa": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}, "sm": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}, "sm-cs": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}, "sm-readme": {"busyWindowMs": 300, "speedZero": "stop", "factoryDefaults": {"position_kp": 50, "position_ki": 0, "position_kd": 10, "speed_kp": 30, "speed_ki": 10, "speed_kd": 0, "rated_current": 50}}};
 export const DEFAULT_PROFILE = "mc";
 
+/** The one emergency stop (docs/service.md): how long control off is read back, and how often. */
+export const HOST_STOP = {
+  verifyMs: 2000,
+  recheckMs: 50,
+} as const;
+
 export const LIMITS = {
   positionDeg: 655.33,
   positionWrapDeg: 655.36,

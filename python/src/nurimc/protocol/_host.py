@@ -61,6 +61,14 @@ HOST: dict[str, Any] = {'timing': {'bits_per_byte': 10,
                               110],
                'source': 'decision: the order discovery searches the 18 rates, most likely first (the '
                          'factory 9600, then the usual fast rates, then the rest)'},
+ 'stop': {'verify_s': 2.0,
+          'recheck_s': 0.05,
+          'source': 'decision: the one emergency stop (docs/service.md): control off broadcast at every rate '
+                    'a motor was seen at, then each motor read back (and told again) every recheck_s until '
+                    'it reads off or verify_s runs out; a controller writing its EEPROM ignores frames for '
+                    'up to 300 ms (field notes), so the window covers several busy windows on a loaded host. '
+                    "The console, the ROS 2 bridge, `nurimc estop` and the page's direct mode use this "
+                    'window'},
  'limits': {'position_deg': 655.33,
             'position_wrap_deg': 655.36,
             'speed_rpm_min': 0.1,

@@ -23,6 +23,10 @@ EEPROM_WRITES: frozenset[str] = frozenset(HOST["eeprom"]["writes"])
 EEPROM_WRITE_MODES: frozenset[int] = frozenset(SPECS[name].mode for name in EEPROM_WRITES)
 BUSY_POLL_INTERVAL: float = HOST["eeprom"]["poll_interval_s"]
 
+#: the one emergency stop (docs/service.md): seconds control off is read back, and between rounds
+STOP_VERIFY: float = HOST["stop"]["verify_s"]
+STOP_RECHECK: float = HOST["stop"]["recheck_s"]
+
 LIMITS: dict[str, float] = {k: v for k, v in HOST["limits"].items() if k != "source"}
 
 #: the order discovery searches the rates in, most likely first (a decision: docs/protocol.md)

@@ -1,4 +1,4 @@
-import { MAX_ID } from "./core/limits.js";
+import { HOST_STOP, MAX_ID } from "./core/limits.js";
 
 // Direct mode: no server; the page drives the bus itself through Web Serial and the TypeScript
 // library (nurimc.browser.js next to this page). It offers the same requests as the server for
@@ -7,7 +7,7 @@ import { MAX_ID } from "./core/limits.js";
 // a motion begun before it is sent after it) and is verified by reading every motor's control
 // back, sent again to a motor that does not read off, for up to ESTOP_VERIFY_MS.
 const LIVE_HZ = 100;
-const ESTOP_VERIFY_MS = 2000; // as the server: a controller writing EEPROM ignores frames for up to 300 ms
+const ESTOP_VERIFY_MS = HOST_STOP.verifyMs; // spec/host.json "stop", the same window as the server's (docs/service.md)
 
 export class DirectLink {
   constructor(lib, baudRate) {

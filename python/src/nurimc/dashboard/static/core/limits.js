@@ -1,8 +1,8 @@
 // Every limit, rate and unit the page uses, from the generated spec (spec/*.json via
 // `make generate`); e2e/unit/limits.test.mjs fails if a view types one of them again.
-import { BAUD_RATES, HOST_TIMING, LIMITS, PROFILES, SETTINGS } from "../generated/spec.js";
+import { BAUD_RATES, HOST_STOP, HOST_TIMING, LIMITS, PROFILES, SETTINGS } from "../generated/spec.js";
 
-export { BAUD_RATES, HOST_TIMING, LIMITS, PROFILES, SETTINGS };
+export { BAUD_RATES, HOST_STOP, HOST_TIMING, LIMITS, PROFILES, SETTINGS };
 
 /** Controller IDs 0..254 (255 is the broadcast address; document §4). Not in the generated spec.js yet: the one place it is typed. */
 export const MAX_ID = 254;

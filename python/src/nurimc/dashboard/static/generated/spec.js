@@ -288,3 +288,5 @@ export const SETTINGS = Object.freeze([
 export const LIMITS = Object.freeze({"positionDeg": 655.33, "positionWrapDeg": 655.36, "speedRpmMin": 0.1, "speedRpmMax": 6553.3, "arrivalSMin": 0.1, "arrivalSMax": 25.5});
 export const HOST_TIMING = Object.freeze({"adapterLatencyMs": 2.0, "marginMs": 3.0, "retries": 2, "retryPauseMs": 5.0});
 export const PROFILES = Object.freeze({"mc": {"busyWindowMs": 300.0}, "blmc-h": {"busyWindowMs": 300.0}, "rsa": {"busyWindowMs": 300.0}, "rsavw": {"busyWindowMs": 300.0}, "sa": {"busyWindowMs": 300.0}, "sm": {"busyWindowMs": 300.0}, "sm-cs": {"busyWindowMs": 300.0}, "sm-readme": {"busyWindowMs": 300.0}});
+// the one emergency stop's read-back window (docs/service.md), as the server's
+export const HOST_STOP = Object.freeze({"verifyMs": 2000.0, "recheckMs": 50.0});
