@@ -1,8 +1,9 @@
 """The console's multi-step bus actions as procedures (sans-I/O, as the core's): the emergency
-stop, set-zero and the step run. They yield actions (Send, Receive, Wait, Now, Note ...) and the
-Bus's driver carries them out, so the console's worker has no sleep loop and no clock of its
-own; busy windows are the BusCore's. Progress goes out as Note events (a reading for the plots),
-and the worker's note handler may throw in an interruption (a newer emergency stop).
+stop (the one of nurimc.service.stop), set-zero and the step run. They yield actions (Send,
+Receive, Wait, Now, Note ...) and the Bus's driver carries them out, so the console's worker
+has no sleep loop and no clock of its own; busy windows are the BusCore's. Progress goes out as
+Note events (a reading for the plots), and the worker's note handler may throw in an
+interruption (a newer emergency stop).
 """
 
 from __future__ import annotations
@@ -13,11 +14,11 @@ from typing import Any
 
 from ..client.actions import Note, Now, Procedure, Receive, Wait
 from ..client.core import BusCore
-from ..errors import NurimcError, PortLost
 from ..motor import MotorProcedures, MotorState
-from ..protocol import BROADCAST_ID, ResetPosition, SetControl
+from ..protocol import ResetPosition
+from ..protocol.host import STOP_VERIFY
+from ..service.stop import emergency_stop as the_stop
 
-ESTOP_RECHECK = 0.05  # s between two rounds of reading control back after an emergency stop
 ZERO_WAIT = 0.5  # s the new zero may take to show in the readings
 ZERO_RECHECK = 0.02
 
@@ -30,62 +31,19 @@ class Reading:
     t: float
 
 
-def _at_rate(core: BusCore, rate: int) -> Procedure[None]:
-    if core.baudrate != rate:
-        yield from core.set_baud(rate)
-
-
 def emergency_stop(
-    core: BusCore, motors: Mapping[int, tuple[MotorProcedures, int]], verify_seconds: float
+    core: BusCore, motors: Mapping[int, tuple[MotorProcedures, int]], verify_seconds: float = STOP_VERIFY
 ) -> Procedure[dict[str, Any]]:
-    """Control off, broadcast at every rate a motor was found at (and the current one), then
-    each motor told and read back until it reads "off" or `verify_seconds` pass.
-
-    `motors`: ID -> (its procedures, the rate it answers at). A controller busy writing its
-    EEPROM (50-300 ms) ignores frames, so a broadcast can be lost on it: each one is told again
-    until it confirms. A lost port (PortLost) is never swallowed: the caller latches the stop.
-    """
-    rates = sorted({*(rate for _, rate in motors.values()), core.baudrate})
-    for rate in rates:
-        yield from _at_rate(core, rate)
-        yield from core.tell(SetControl(BROADCAST_ID, 1))
-    for motor, rate in motors.values():
-        yield from _at_rate(core, rate)
-        yield from _told_again(motor)
-    controls: dict[str, Any] = {}
-    unconfirmed = set(motors)
-    deadline = (yield Now()) + verify_seconds
-    while unconfirmed:
-        for device_id in sorted(unconfirmed):
-            motor, rate = motors[device_id]
-            yield from _at_rate(core, rate)
-            controls[str(device_id)] = value = yield from _control(motor)
-            if value == "off":
-                unconfirmed.discard(device_id)
-            else:  # still on, or not answering yet: tell it again
-                yield from _told_again(motor)
-        if not unconfirmed or (yield Now()) >= deadline:
-            break
-        yield Wait(ESTOP_RECHECK)
-    return {"rates": rates, "control": controls}
-
-
-def _told_again(motor: MotorProcedures) -> Procedure[None]:
-    try:
-        yield from motor.release()  # the handle remembers: the next move turns control on again
-    except PortLost:
-        raise
-    except NurimcError:  # the broadcast went out; the read-back tells the truth
-        pass
-
-
-def _control(motor: MotorProcedures) -> Procedure[str]:
-    try:
-        return str((yield from motor.get("control")))
-    except PortLost:
-        raise
-    except NurimcError as error:
-        return f"unknown: {error}"
+    """The one emergency stop (nurimc.service.stop, docs/service.md), its result as the pages
+    show it: rates, each motor's control read back, and which motors it could not read back."""
+    result = yield from the_stop(core, motors, verify_seconds)
+    return {
+        "rates": list(result.rates),
+        "control": result.control,
+        "stopped": list(result.stopped),
+        "not_confirmed": list(result.not_confirmed),
+        "ok": result.ok,
+    }
 
 
 def probe_port() -> Procedure[int]:

@@ -27,7 +27,7 @@ from ..discovery import Found, Progress, discover
 from ..errors import ControllerBusy, NurimcError, PortError, PortLost
 from ..motor import Motor, MotorState
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
-from ..protocol.host import LIMITS
+from ..protocol.host import LIMITS, STOP_VERIFY
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
 from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
@@ -37,7 +37,7 @@ from .stepresponse import analyse
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest target a position command can carry, degrees
 
 POLL_HZ = 200.0  # at most this many reads of each watched motor per second
-ESTOP_VERIFY_SECONDS = 2.0  # the controllers answer again once their EEPROM write is done (50-300 ms)
+ESTOP_VERIFY_SECONDS = STOP_VERIFY  # spec/host.json "stop": the one window of every stop (docs/service.md)
 ERROR_REPEAT = 1.0  # s between two reports of the same motor's read failure
 IDLE_PROBE = 1.0  # s without any bus work before the port is looked at (a lost port is noticed in use)
 DOWN_RECHECK = 1.0  # s: while the port is down the thread sleeps this long between looks (no busy loop)

@@ -20,7 +20,9 @@ from ..errors import NurimcError, PortLost
 from ..group import read_states, read_states_broadcast, stagger
 from ..motor import Motor, MotorState
 from ..outage import OutageGuard
-from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
+from ..protocol import FieldRangeError
+from ..protocol.host import STOP_VERIFY
+from ..service.stop import StopResult, emergency_stop
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
 from .dds import Participant
@@ -28,7 +30,6 @@ from .graph import NodeAnnouncer
 from .names import topic
 
 DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
-ESTOP_VERIFY = 1.0  # s: how long to read back control off after an estop (EEPROM busy 50-300 ms)
 DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
 LOG_REPEAT = 2.0  # s between two reports of the same kind of trouble on stderr
 
@@ -254,29 +255,17 @@ class BridgeNode:
         elif isinstance(action, ReleaseAll):
             self.release_all(action.ids)
 
-    def release_all(self, ids: tuple[int, ...]) -> None:
-        """Control off by broadcast, then to each motor by ID, then read back until each says off."""
-        self.bus.send(SetControl(BROADCAST_ID, 1))
-        for device_id in ids:
-            self.motors[device_id].release()  # the handle remembers: the next motion turns control on first
-        deadline = time.monotonic() + ESTOP_VERIFY
-        pending = set(ids)
-        while pending:
-            for device_id in sorted(pending):
-                try:
-                    if self.motors[device_id].get("control") == "off":
-                        pending.discard(device_id)
-                    else:
-                        self.motors[device_id].release()
-                except NurimcError:
-                    pass  # busy writing EEPROM: ask again
-            if pending and time.monotonic() >= deadline:
-                ids_text = ", ".join(map(str, sorted(pending)))
-                self._log(f"estop: ID {ids_text} did not confirm control off within {ESTOP_VERIFY} s")
-                return
-            if pending:
-                time.sleep(0.05)
-        self._log(f"estop: control off confirmed on ID {', '.join(map(str, ids))}")
+    def release_all(self, ids: tuple[int, ...]) -> StopResult:
+        """The one emergency stop (nurimc.service.stop, docs/service.md): control off by broadcast,
+        then to each motor by ID, read back until each says off or spec/host.json's window runs out."""
+        motors = {i: (self.motors[i].procedures, self.bus.baudrate) for i in ids}
+        result = self.bus.run(emergency_stop(self.bus.core, motors))
+        if result.not_confirmed:
+            ids_text = ", ".join(map(str, result.not_confirmed))
+            self._log(f"estop: ID {ids_text} did not confirm control off within {STOP_VERIFY} s")
+        if result.stopped:
+            self._log(f"estop: control off confirmed on ID {', '.join(map(str, result.stopped))}")
+        return result
 
     def read_states(self) -> dict[int, MotorState | Exception]:
         procedures = [m.procedures for m in self.motors.values()]
