@@ -53,7 +53,7 @@ def test_the_socket_is_private_and_named_after_the_port(holder: tuple[SimBus, Bu
 def test_an_attached_program_runs_commands_and_sees_the_holders_clients(
     holder: tuple[SimBus, BusService, ShareServer],
 ) -> None:
-    sim, service, _ = holder
+    sim, _, _ = holder
     bus = attach()
     try:
         state = bus.motor(1).read_state()

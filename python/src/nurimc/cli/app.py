@@ -51,10 +51,11 @@ COMMAND_MODULES = (
     "dashboard_cmd",
     "ros2_cmd",
     "record_cmd",
+    "service_cmd",
 )
 
 #: Commands that run until stopped: SIGTERM is their normal end (exit 0), not an interruption.
-LONG_RUNNING = frozenset({"watch", "sniff", "dashboard", "sim", "ros2", "record"})
+LONG_RUNNING = frozenset({"watch", "sniff", "dashboard", "sim", "ros2", "record", "serve"})
 _invoked = [""]  # the command being run (set once the global options are parsed)
 
 app = typer.Typer(
@@ -106,6 +107,7 @@ def main_options(
     ctx.obj.product_given = product is not None
     ctx.obj.rs485 = rs485 or rs485_invert
     ctx.obj.rs485_invert = rs485_invert
+    ctx.obj.command = ctx.invoked_subcommand or ""  # how an attached program is listed (nurimc clients)
     _invoked[:] = [ctx.invoked_subcommand or ""]
 
 

@@ -89,6 +89,7 @@ class Options:
     product_given: bool = False  # --product was given; else a command asks the controller its line
     rs485: bool = False  # RS485 direction control (docs/troubleshooting.md)
     rs485_invert: bool = False
+    command: str = ""  # the command being run (an attached program is listed by it: nurimc clients)
 
 
 def one_line(message: object) -> str:
@@ -211,13 +212,20 @@ class FramePrinter:
         pass
 
 
-def open_bus(o: Options, reconnect: bool = False) -> Bus:
-    """The bus of --port; reconnect: reopen it when it goes away (long-running tools: outage.py)."""
+def open_bus(o: Options, reconnect: bool = False, attach: bool = True) -> Bus:
+    """The bus of --port; reconnect: reopen it when it goes away (long-running tools: outage.py).
+    When another nurimc program holds the port, the bus is attached to it (docs/service.md)."""
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     rs485 = RS485(rts_level_for_tx=not o.rs485_invert) if o.rs485 else None
     tracer = FramePrinter() if o.verbose else None
+    if attach:
+        from .attach import attached_bus
+
+        shared = attached_bus(port, o.baud, tracer, o.command)
+        if shared is not None:
+            return shared
     bus = Bus.open(port, baudrate=o.baud, tracer=tracer, rs485=rs485, reconnect=reconnect)
     warning = getattr(bus.transport, "warning", None)
     if warning:

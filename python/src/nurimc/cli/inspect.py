@@ -24,6 +24,7 @@ from ..motor import MotorState
 from ..outage import OutageGuard
 from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
+from ..service.share import HolderGone
 from ..settings import SETTINGS
 from .common import (
     EXIT_INTERRUPTED,
@@ -257,6 +258,8 @@ def watch(
                     s = m.read_state()
                     readings.append({"id": m.id, **_state_dict(s)})
                     rows.append((str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction))
+                except HolderGone:  # attached, and the holder ended: said once, and watching ends (exit 1)
+                    raise
                 except NurimcError as error:
                     rows.append((str(m.id), "no answer", "", "", one_line(error)))  # the whole error: its cause
             return rows

@@ -528,6 +528,9 @@ class Connection:
         return reply.get("result")
 
     def close(self) -> None:
+        """This program is done with the holder (nothing to report)."""
+        if self.gone is None:
+            self.gone = "this program closed its connection to the holder"
         with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
         self.sock.close()
