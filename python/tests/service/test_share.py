@@ -160,3 +160,18 @@ def test_the_rule_leaves_virtual_time_modules_alone() -> None:
 
     assert not conftest.uses_real_time(test_service_core)
     assert conftest.uses_real_time(sys.modules[__name__])
+
+
+def test_a_long_port_name_still_makes_a_short_socket_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory(dir="/tmp") as short:
+        monkeypatch.setenv("XDG_RUNTIME_DIR", short)
+        long_port = "/dev/serial/by-id/usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0" * 2
+        path = socket_path(long_port)
+        assert len(str(path)) <= 100 and path != socket_path(long_port + "x")
+    deep = tmp_path / ("d" * 90)
+    deep.mkdir()
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(deep))
+    with pytest.raises(ShareError, match="set XDG_RUNTIME_DIR to a shorter directory"):
+        socket_path("/dev/ttyUSB0")

@@ -55,6 +55,7 @@ MAX_MESSAGE = 1 << 20  # bytes of one message, at most
 OUT_QUEUE = 1000  # messages waiting for a client that does not read; past it the client is dropped
 LEASE_IDLE = 2.0  # s a lease may go without an op before the holder takes the bus back
 LEASE_WAIT = 30.0  # s an attached program waits for the bus (the queue) before giving up
+SUN_PATH_MAX = 100  # bytes of a Unix socket's path we use, at most (the system allows 107)
 HELLO_WAIT = 5.0  # s a new connection has to say hello
 
 
@@ -83,10 +84,17 @@ def runtime_dir() -> Path:
 
 def socket_path(port: str) -> Path:
     """The socket of a port: its path or URL escaped (hashed when too long for a socket name)."""
+    folder = runtime_dir()
     name = urllib.parse.quote(port, safe="")
+    digest = hashlib.sha256(port.encode()).hexdigest()
     if len(name) > 60:
-        name = name[:40] + "-" + hashlib.sha256(port.encode()).hexdigest()[:16]
-    return runtime_dir() / f"{name}.sock"
+        name = name[:40] + "-" + digest[:16]
+    if len(os.fsencode(folder / f"{name}.sock")) > SUN_PATH_MAX:  # a socket's path is short (108 bytes)
+        name = digest[:24]
+    path = folder / f"{name}.sock"
+    if len(os.fsencode(path)) > SUN_PATH_MAX:
+        raise ShareError(f"{folder} is too long a path for a socket; set XDG_RUNTIME_DIR to a shorter directory")
+    return path
 
 
 # -- messages ----------------------------------------------------------------------------------
