@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import socket
+from typing import Any
 
 import typer
 
@@ -48,14 +49,15 @@ def dashboard(
         fail(str(error), EXIT_USAGE)
     tap = FrameTap()
     sim_bus = None
+    holding = None
     if sim:
         from ..dashboard.simulated import simulated_bus
 
         sim_bus, bus = simulated_bus(tap)
         port_name = "sim://"
     else:
-        bus = Bus(open_bus(o, reconnect=True).transport, tracer=tap)  # reopened when lost (docs/dashboard.md)
         port_name = o.port or os.environ.get("NURIMC_PORT", "")
+        bus, holding = console_bus(o, tap, port_name)  # attached to a holder, or holding and sharing the port
 
     family = socket.AF_INET6 if ":" in address.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
@@ -83,9 +85,25 @@ def dashboard(
         lost = outage.port_lost_at_exit()
         if lost:
             say_line(lost)
+        if holding is not None:
+            holding.close("the holder (nurimc dashboard) ended")
         bus.close()
         if sim_bus is not None:
             sim_bus.close()
+
+
+def console_bus(o: Any, tap: Any, port_name: str) -> tuple[Bus, Any]:
+    """The console's bus: attached when another nurimc program holds the port (docs/service.md),
+    else its own (reopened when lost: docs/dashboard.md), served to other programs."""
+    from ..service.hold import hold_port
+    from ..service.share import AttachedBus
+
+    opened = open_bus(o, reconnect=True)
+    if isinstance(opened, AttachedBus):
+        opened.add_listener(tap)
+        return opened, None
+    bus = Bus(opened.transport, tracer=tap)
+    return bus, hold_port(bus, port_name, {}, "nurimc dashboard", say_line)
 
 
 def register(app: typer.Typer) -> None:

@@ -209,6 +209,7 @@ def ros2(
             recorder.close()
         raise
     node = None
+    holding = None
     try:
         motor_list = motor_ids(o, ids, bus)
         try:
@@ -229,6 +230,7 @@ def ros2(
         control_topics.attach(node, control_commands, control_states)
         if base is not None:
             diffdrive.attach(node, base, stamped)
+        holding = share_bus(node, bus, o, motor_list)  # other nurimc programs attach (docs/service.md)
         node.prepare()
         joints = ", ".join(f"{n}=ID {i}" for n, i in zip(names, motor_list, strict=True))
         out.print(
@@ -244,11 +246,32 @@ def ros2(
         if node.failure:
             fail(node.failure, EXIT_DEVICE)
     finally:
+        if holding is not None:
+            holding.close("the holder (nurimc ros2) ended")
         if node is not None:
             node.close()
         bus.close()
         if recorder is not None:
             recorder.close()
+
+
+def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:
+    """Serve the bridge's bus to other nurimc programs; an emergency stop from any of them is
+    reported here (the motors stay stopped until a command moves them again)."""
+    from ..service.hold import hold_port
+
+    def reported(event: dict[str, Any]) -> None:
+        if event.get("type") == "estop":
+            stopped = ", ".join(map(str, event.get("stopped", []))) or "none"
+            missing = ", ".join(map(str, event.get("not_confirmed", [])))
+            node._log(
+                f"estop on the shared bus: control off read back on ID {stopped}"
+                + (f"; NOT confirmed: ID {missing}" if missing else "")
+            )
+
+    port = o.port or os.environ.get("NURIMC_PORT", "")
+    motors = {i: bus.baudrate for i in motor_list}
+    return hold_port(bus, port, motors, "nurimc ros2", node._log, reported)
 
 
 def _base_ids(text: str | None, radius: float | None, separation: float | None) -> list[int]:

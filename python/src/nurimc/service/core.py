@@ -200,6 +200,8 @@ class BusService:
         self.generation = 0  # bumped by every emergency stop
         self.reads = 0
         self.say = say or (lambda text: None)
+        #: where more motors come from at each emergency stop (a holder program's own list), if anywhere
+        self.motor_source: Callable[[], Mapping[int, int]] | None = None
         self._cond = threading.Condition(threading.RLock())
         self._queue: list[_Job] = []
         self._seq = itertools.count()
@@ -413,6 +415,8 @@ class BusService:
 
     def _stop_work(self, bus: Bus) -> StopResult:
         self._stop_asked.clear()
+        if self.motor_source is not None:  # the holder program's own list (the console's discovered motors)
+            self.add_motors(self.motor_source())
         with self._cond:
             known = dict(self.known)
         motors: dict[int, tuple[MotorProcedures, int]] = {}

@@ -85,6 +85,8 @@ def runtime_dir() -> Path:
 def socket_path(port: str) -> Path:
     """The socket of a port: its path or URL escaped (hashed when too long for a socket name)."""
     folder = runtime_dir()
+    if "://" not in port and os.path.exists(port):  # /dev/ttyUSB0 and a symlink to it are one port
+        port = os.path.realpath(port)
     name = urllib.parse.quote(port, safe="")
     digest = hashlib.sha256(port.encode()).hexdigest()
     if len(name) > 60:
