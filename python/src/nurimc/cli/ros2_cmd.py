@@ -47,6 +47,11 @@ def open_traced_bus(o: Options, recorder: Any | None, reconnect: bool = True) ->
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     tracers = [t for t in (recorder, FramePrinter() if o.verbose else None) if t is not None]
     tracer = tracers[0] if len(tracers) == 1 else _Tee(tracers) if tracers else None
+    from .attach import attached_bus
+
+    shared = attached_bus(port, o.baud, tracer, o.command)  # another nurimc program holds it: attach
+    if shared is not None:
+        return shared
     bus = Bus.open(port, baudrate=o.baud, tracer=tracer, reconnect=reconnect)  # reopened when lost: outage.py
     warning = getattr(bus.transport, "warning", None)
     if warning:
@@ -185,6 +190,7 @@ def ros2(
     from ..ros2.names import joint_names as make_joint_names
     from ..ros2.names import namespace as check_namespace
     from ..ros2.node import BridgeNode
+    from ..service.share import AttachedBus
 
     try:
         ns = check_namespace(namespace)
@@ -230,7 +236,8 @@ def ros2(
         control_topics.attach(node, control_commands, control_states)
         if base is not None:
             diffdrive.attach(node, base, stamped)
-        holding = share_bus(node, bus, o, motor_list)  # other nurimc programs attach (docs/service.md)
+        if not isinstance(bus, AttachedBus):  # our own port (not attached to a holder): shared with others
+            holding = share_bus(node, bus, o, motor_list)  # docs/service.md
         node.prepare()
         joints = ", ".join(f"{n}=ID {i}" for n, i in zip(names, motor_list, strict=True))
         out.print(
