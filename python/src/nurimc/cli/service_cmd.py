@@ -47,7 +47,7 @@ def serve(ctx: typer.Context) -> None:
         held = connect(port, "nurimc serve")
         if held is not None:
             held.close()
-            fail(f"another nurimc program already holds {port}: attach to it instead (nurimc --port {port} clients)")
+            fail(f"another nurimc program already holds {port}: attach to it instead (see `nurimc clients`)")
     bus = open_bus(o, reconnect=True, attach=False)
     service = BusService(bus, say=say_line, program="nurimc serve").start()
     try:
@@ -86,7 +86,7 @@ def clients(ctx: typer.Context) -> None:
         fail(str(error), EXIT_DEVICE)
     if conn is None:
         fail(
-            f"no nurimc program holds {port}: nothing is attached (start one with nurimc --port {port} serve)",
+            f"no nurimc program holds {port}: nothing is attached (start one with `nurimc serve`)",
             EXIT_DEVICE,
         )
     try:
