@@ -173,3 +173,16 @@ def test_bad_rates_are_refused(pair: tuple[SimBus, Bus]) -> None:
     service = service_on(bus)
     with pytest.raises(ValueError, match="above 0"):
         service.subscribe([1], 0, lambda s: None)
+
+
+def test_readings_the_holder_makes_itself_are_shared_not_read_again(pair: tuple[SimBus, Bus]) -> None:
+    _, bus = pair
+    service = service_on(bus)
+    got: list[Sample] = []
+    service.subscribe([1], 10, got.append)
+    end = bus.clock.now() + 2.0
+    while bus.clock.now() < end:  # the holder's own loop reads motor 1 at 50 Hz and offers each reading
+        service.offer(service.run(service.motor(1).procedures.read_state()))
+        service.run_for(0.02)
+    assert service.reads == 0  # the service never read the bus for its subscriber
+    assert 18 <= len(got) <= 21  # 10 a second, from the holder's readings

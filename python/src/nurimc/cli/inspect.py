@@ -24,8 +24,9 @@ from ..motor import MotorState
 from ..outage import OutageGuard
 from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
-from ..service.share import HolderGone
+from ..service.share import AttachedBus, HolderGone
 from ..settings import SETTINGS
+from .attach import SharedReadings
 from .common import (
     EXIT_INTERRUPTED,
     Number,
@@ -251,11 +252,17 @@ def watch(
         motors = [motor_for(bus, o, i, acts=False) for i in o.ids]
         outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each; every reading is fresh anyway
 
+        shared = SharedReadings(bus, o.ids, 1.0 / interval) if isinstance(bus, AttachedBus) else None
+
         def read_all() -> list[tuple[str, ...]]:
             rows: list[tuple[str, ...]] = []
+            latest = shared.latest() if shared is not None else {}  # attached: the holder's shared readings
             for m in motors:
                 try:
-                    s = m.read_state()
+                    got = latest.get(m.id, NurimcError("no reading yet")) if shared is not None else None
+                    if isinstance(got, NurimcError):
+                        raise got
+                    s = got if got is not None else m.read_state()
                     readings.append({"id": m.id, **_state_dict(s)})
                     rows.append((str(m.id), f"{s.position:.2f}", f"{s.speed:.1f}", f"{s.current:.1f}", s.direction))
                 except HolderGone:  # attached, and the holder ended: said once, and watching ends (exit 1)

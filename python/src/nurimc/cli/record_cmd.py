@@ -56,6 +56,8 @@ def record(
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 record --mcap run.mcap --ids 1,2 --seconds 10
     """
     o = options(ctx)
+    from ..service.share import AttachedBus
+    from .attach import SharedReadings
     from .ros2_cmd import motor_ids, need_extra, open_traced_bus, wait_for_signal
 
     need_extra()
@@ -101,6 +103,8 @@ def record(
             markup=False,
         )
 
+        shared = SharedReadings(bus, motor_list, rate or 50.0) if isinstance(bus, AttachedBus) else None
+
         def loop() -> None:
             period = 1.0 / rate if rate else 0.0
             next_read = time.monotonic()
@@ -108,7 +112,10 @@ def record(
             lost_since: float | None = None
             while not stop.is_set():
                 try:
-                    bridge.readings(bus.run(read_states(procedures)))
+                    if shared is not None:  # attached: the holder's shared readings, no reads of our own
+                        bridge.readings(shared.take(max(2 * period, 0.1)))
+                    else:
+                        bridge.readings(bus.run(read_states(procedures)))
                     lost_since = None
                 except PortLost as error:  # said once; recording resumes with fresh readings when it is back
                     lost_since = time.monotonic() if lost_since is None else lost_since
@@ -127,6 +134,8 @@ def record(
                 message = bridge.joint_state(time.time_ns())
                 if message is not None:
                     recorder.joint_state(state_topic, message)
+                if shared is not None:
+                    continue  # paced by the holder's readings
                 next_read = max(next_read + period, time.monotonic())
                 stop.wait(next_read - time.monotonic())
 

@@ -278,7 +278,15 @@ def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:
 
     port = o.port or os.environ.get("NURIMC_PORT", "")
     motors = {i: bus.baudrate for i in motor_list}
-    return hold_port(bus, port, motors, "nurimc ros2", node._log, reported)
+    holding = hold_port(bus, port, motors, "nurimc ros2", node._log, reported)
+
+    def offer(results: dict[int, Any]) -> None:  # the bridge's readings serve attached readers too
+        for state in results.values():
+            if not isinstance(state, Exception):
+                holding.service.offer(state)
+
+    node.on_states.append(offer)
+    return holding
 
 
 def _base_ids(text: str | None, radius: float | None, separation: float | None) -> list[int]:

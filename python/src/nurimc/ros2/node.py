@@ -94,6 +94,8 @@ class BridgeNode:
         ]
         #: called on the bus thread after each reading is published (ros2_control topics, mobile base)
         self.after_read: list[Callable[[float], list[Action]]] = []
+        #: given each round of readings (ID -> state or error): the bus service shares them with attached programs
+        self.on_states: list[Callable[[dict[int, MotorState | Exception]], None]] = []
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
         self.graph = NodeAnnouncer(participant, node_name, namespace) if node_name else None
 
@@ -293,6 +295,8 @@ class BridgeNode:
                 self.sink.joint_state(self.joint_states_topic, message)
         for work in self.after_read:
             self._carry_out(work(time.monotonic()))
+        for offer in self.on_states:  # shared with the programs attached to this port (docs/service.md)
+            offer(results)
         return message
 
     def publish_diagnostics(self) -> None:

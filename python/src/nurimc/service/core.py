@@ -351,6 +351,18 @@ class BusService:
             else:
                 poll.rate_hz = rate
 
+    def offer(self, state: MotorState) -> None:
+        """A reading the holder program made itself (the bridge's loop): handed to the
+        subscribers of that motor as if polled, and the motor's next poll put off by one period,
+        so the bus is not read twice for the same due time (polls are shared with the holder)."""
+        now = self.clock.now()
+        with self._cond:
+            poll = self._polls.get(state.id)
+            if poll is not None:
+                poll.next_due = max(poll.next_due, now + 1.0 / poll.rate_hz)
+                poll.failures, poll.silent_since, poll.backoff = 0, None, 0.0
+        self._fan_out(Sample(state.id, now, state))
+
     @property
     def poll_rates(self) -> dict[int, float]:
         with self._cond:

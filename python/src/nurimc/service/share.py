@@ -639,6 +639,7 @@ class AttachedBus(Bus):
     def __init__(self, conn: Connection, port: str, baudrate: int, **options: Any) -> None:
         self.conn = conn
         self.remote = RemoteTransport(conn, port, baudrate)
+        self._subs: dict[int, Callable[[dict[str, Any]], None]] = {}
         super().__init__(self.remote, **options)
 
     def run(self, procedure: Any, on_note: Callable[[Any], None] | None = None, timeout: float | None = None) -> Any:
@@ -651,6 +652,20 @@ class AttachedBus(Bus):
                 self.remote.leased = False
                 with contextlib.suppress(NurimcError):
                     self.conn.call("release")
+
+    def subscribe(self, motors: list[int], rate_hz: float, callback: Callable[[dict[str, Any]], None]) -> int:
+        """Readings of `motors` from the holder's shared poll schedule (no lease, no extra reads
+        when the holder reads them anyway): `callback(sample)` from the connection's thread,
+        sample as {"id", "t", "state": {...} or None, "error", "silent_since"}."""
+        key = int(self.conn.call("subscribe", timeout=10, motors=list(motors), rate=rate_hz)["sub"])
+        self._subs[key] = callback
+        self.conn.on_sample = self._sample
+        return key
+
+    def _sample(self, sample: dict[str, Any], key: int) -> None:
+        callback = self._subs.get(key)
+        if callback is not None:
+            callback(sample)
 
     def emergency_stop(self) -> dict[str, Any]:
         result: dict[str, Any] = self.conn.call("estop", timeout=30)
