@@ -7,6 +7,7 @@ import socket
 import stat
 import struct
 import sys
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -25,8 +26,9 @@ RATE = 115200
 
 
 @pytest.fixture
-def holder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[SimBus, BusService, ShareServer]]:
-    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+def holder(monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[SimBus, BusService, ShareServer]]:
+    runtime = tempfile.TemporaryDirectory(dir="/tmp", prefix="nmc")  # a socket's path must stay short
+    monkeypatch.setenv("XDG_RUNTIME_DIR", runtime.name)
     sim, bus = sim_bus([1, 2], baud=RATE, clock=REAL_CLOCK)
     service = BusService(bus, motors={1: RATE, 2: RATE}, program="test-holder").start()
     server = ShareServer(service, PORT, say=lambda text: None).start()
@@ -35,6 +37,7 @@ def holder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Si
     service.close()
     bus.close()
     sim.close()
+    runtime.cleanup()
 
 
 def attach(program: str = "test-client", events: list[dict[str, Any]] | None = None) -> AttachedBus:
@@ -163,8 +166,6 @@ def test_the_rule_leaves_virtual_time_modules_alone() -> None:
 
 
 def test_a_long_port_name_still_makes_a_short_socket_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import tempfile
-
     with tempfile.TemporaryDirectory(dir="/tmp") as short:
         monkeypatch.setenv("XDG_RUNTIME_DIR", short)
         long_port = "/dev/serial/by-id/usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0" * 2
