@@ -142,8 +142,9 @@ def test_the_holder_ending_is_told_and_a_call_fails_clearly(holder: tuple[SimBus
         bus.close()
 
 
-def test_a_stale_socket_is_removed_not_attached_to(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+def test_a_stale_socket_is_removed_not_attached_to(monkeypatch: pytest.MonkeyPatch) -> None:
+    short = tempfile.TemporaryDirectory(dir="/tmp", prefix="nmc")
+    monkeypatch.setenv("XDG_RUNTIME_DIR", short.name)
     path = socket_path(PORT)
     dead = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     dead.bind(str(path))  # bound, never listening: as a crashed holder leaves it
@@ -151,6 +152,7 @@ def test_a_stale_socket_is_removed_not_attached_to(tmp_path: Path, monkeypatch: 
     assert path.exists()
     assert connect(PORT, "probe") is None
     assert not path.exists()
+    short.cleanup()
 
 
 def test_socket_tests_are_marked_realtime_by_the_conftest_rule(request: pytest.FixtureRequest) -> None:
