@@ -77,6 +77,8 @@ def dashboard(
     config = DashboardConfig(
         bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, port=port_name, on_ready=ready
     )
+    if holding is not None:
+        config.on_worker = lambda worker: share_with_pages(holding, worker)
     server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **uvicorn_options()))
     outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each
     try:
@@ -90,6 +92,19 @@ def dashboard(
         bus.close()
         if sim_bus is not None:
             sim_bus.close()
+
+
+def share_with_pages(holding: Any, worker: Any) -> None:
+    """The console holds the port: the motors it found are stopped by an estop from any attached
+    program, and such a stop is shown on every page (its banner), as the console's own."""
+    holding.service.motor_source = lambda: worker.known
+
+    def told(event: dict[str, Any]) -> None:
+        if event.get("type") == "estop":
+            worker.turning.clear()
+            worker.publish({**event, "type": "estop", "generation": worker.generation, "from": "another program"})
+
+    holding.service.listen(told)
 
 
 def console_bus(o: Any, tap: Any, port_name: str) -> tuple[Bus, Any]:

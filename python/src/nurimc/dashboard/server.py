@@ -64,6 +64,8 @@ class DashboardConfig:
     sim: bool = False
     port: str = ""
     on_ready: Callable[[], None] | None = None
+    #: given the bus worker once it exists (the shared bus: docs/service.md)
+    on_worker: Callable[[BusWorker], None] | None = None
 
 
 class GuardMiddleware:
@@ -238,6 +240,8 @@ def create_app(config: DashboardConfig) -> Starlette:
 
         w = BusWorker(config.bus, config.product, publish, config.port, config.tap)
         state["worker"] = w
+        if config.on_worker is not None:
+            config.on_worker(w)
         w.start()
         flusher = asyncio.create_task(flush())
         if config.on_ready:

@@ -91,6 +91,8 @@ class BusWorker:
         self._returns_seen = 0  # the transport's count of returns this thread has caught up with
         #: motors set turning by `run` (a speed with no end): stopped first if the port is lost meanwhile
         self.turning: set[int] = set()
+        #: motors this console set moving or holding on its port: stopped before it leaves the port
+        self.commanded: set[int] = set()
         self._watch_port()
         self._thread = threading.Thread(target=self._loop, name="nurimc-dashboard-bus", daemon=True)
 
@@ -338,21 +340,25 @@ class BusWorker:
                 self._wrote_eeprom(device_id, " (control on)")
                 (motor.move_by if relative else motor.move_to)(degrees, rpm=rpm, seconds=seconds)
                 self.turning.discard(device_id)  # a move ends by itself
+                self.commanded.add(device_id)
                 return {"id": device_id}
             case c.RunMotor(device_id, rpm, ramp):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).run(rpm, ramp)
                 self.turning.add(device_id)
+                self.commanded.add(device_id)
                 return {"id": device_id}
             case c.Release(device_id):
                 self._wrote_eeprom(device_id, " after the release")
                 self.motor(device_id).release()
                 self.turning.discard(device_id)
+                self.commanded.discard(device_id)  # control off: not driven any more
                 return {"id": device_id, "control": "off"}
             case c.HoldMotor(device_id):
                 self._wrote_eeprom(device_id, " (control on)")
                 self.motor(device_id).hold()
                 self.turning.discard(device_id)
+                self.commanded.add(device_id)
                 return {"id": device_id}
             case c.ReadSettings(device_id):
                 return {"id": device_id, "settings": self.motor(device_id).read_settings()}
@@ -536,6 +542,7 @@ class BusWorker:
             return {"port": port, "baudrate": rate}
         if port == self.port:  # lost: try the same path now, the reconnect carries on if it fails
             return self._reopen_now(port, rate)
+        left = self._stop_before_leaving()
         old = self.bus
         new = Bus.open(port, baudrate=rate, tracer=self.tracer, reconnect=True)  # PortError says what is wrong
         old_transport = reconnecting(old.transport)
@@ -545,7 +552,7 @@ class BusWorker:
         old.close()
         self._handles.clear()
         self._watch_port()
-        result: dict[str, Any] = {"port": port, "baudrate": rate}
+        result: dict[str, Any] = {"port": port, "baudrate": rate, **left}
         if self.stop_pending:  # asked for the motors of the lost port: on this one, as far as it reaches
             result["estop"] = self._stop_now(latched=True)
         self.motors.clear()
@@ -553,6 +560,28 @@ class BusWorker:
         self.publish({"type": "motors", "motors": [], "generation": self.generation})
         self.publish({"type": "port", "state": "opened", **self.port_state()})
         return result
+
+    def _stop_before_leaving(self) -> dict[str, Any]:
+        """Port switching is a stop first: every motor this console commanded on the port it
+        leaves is stopped and read back off, or the switch is refused with those motors named.
+        With the port lost, the switch goes on and names them (the latched stop still waits)."""
+        ids = sorted(self.commanded)
+        if not ids:
+            return {}
+        motors = {i: (self._handle(i).procedures, self.known.get(i, self.bus.baudrate)) for i in ids}
+        try:
+            result = self.bus.run(emergency_stop(self.bus.core, motors))
+        except PortLost:
+            return {"not_stopped": ids}
+        if result["not_confirmed"]:
+            names = ", ".join(map(str, result["not_confirmed"]))
+            raise ValueError(
+                f"cannot leave {self.port}: ID {names} did not read back off after control off (the port was "
+                "not switched); stop them (or cut their power), then switch"
+            )
+        self.commanded.clear()
+        self.turning.clear()
+        return {"stopped_before_leaving": result["stopped"]}
 
     def _reopen_now(self, port: str, rate: int) -> dict[str, Any]:
         transport = reconnecting(self.bus.transport)
@@ -609,6 +638,7 @@ class BusWorker:
             if transport is not None:
                 transport.on_return("estop", None)
         self.turning.clear()
+        self.commanded.difference_update(result.get("stopped", []))
         result.update(generation=self.generation, latched=latched)
         self.publish({"type": "estop", **result})
         return result
