@@ -60,3 +60,24 @@ def test_the_consoles_stop_names_what_it_could_not_read_back() -> None:
     assert events[-1]["type"] == "estop" and events[-1]["not_confirmed"] == [2]  # every page is told
     worker.bus.close()
     sim.close()
+
+
+def test_the_console_keeps_reading_while_its_stop_reads_back_and_backs_off_a_silent_motor() -> None:
+    sim, worker, events = worker_on([1, 2, 3])
+    worker.watched = (1, 2, 3)
+    worker._execute(c.RunMotor(1, 60.0, 0.1))
+    worker.bus.clock.sleep(0.3)
+    with sim.lock:  # motor 3 never confirms: the stop reads back for its whole window
+        sim.controllers.remove(sim.controller(3))
+        sim._forget_index()
+    t0 = worker.bus.clock.now()
+    worker._stop_now()
+    t1 = worker.bus.clock.now()
+    rows = worker.take_samples()
+    of_1 = [r for r in rows if r[0] == 1]
+    assert t1 - t0 >= 2.0 and len(of_1) >= 0.5 * (t1 - t0) / 0.02, (len(of_1), t1 - t0)  # still read while coasting
+    assert any(e["type"] == "motor_silent" and e["id"] == 3 for e in events)
+    attempts_3 = worker.silent.failures.get(3, 0)
+    assert attempts_3 <= 12  # one try per backoff period, not one per poll
+    worker.bus.close()
+    sim.close()

@@ -28,6 +28,8 @@ from ..errors import ControllerBusy, NurimcError, PortError, PortLost
 from ..motor import Motor, MotorState
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS, STOP_VERIFY
+from ..service.backoff import Backoff
+from ..service.stop import Idle
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
 from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
@@ -83,6 +85,8 @@ class BusWorker:
         self._samples: list[list[float]] = []
         self._samples_lock = threading.Lock()
         self._last_error: dict[int, float] = {}
+        self._next_stop_poll = 0.0
+        self.silent = Backoff()  # motors that stopped answering: read less often, the others keep their rate
         self._busy_why: dict[int, str] = {}  # motor -> what last wrote its EEPROM (the window itself is BusCore's)
         self.clock_origin = time.monotonic()
         self.reads = 0
@@ -274,11 +278,16 @@ class BusWorker:
 
     def _poll(self) -> None:
         for device_id in self.watched:
+            # a motor that stopped answering is read less often (service/backoff.py): the others keep their rate
+            if not self.silent.due(device_id, self.bus.clock.now()):
+                continue
             try:
                 self._sample(device_id)
             except PortLost:  # said once, as a `port` event; polling pauses until it is back
                 return
             except NurimcError as error:
+                if self.silent.failed(device_id, self.bus.clock.now()):
+                    self.publish({"type": "motor_silent", "id": device_id})
                 now = time.monotonic()
                 why = self._busy_why.get(device_id, "")
                 if now < self.bus.core.busy_until(device_id) + BUSY_MARGIN or isinstance(error, ControllerBusy):
@@ -293,6 +302,8 @@ class BusWorker:
     def _sample(self, device_id: int) -> MotorState:
         """Read one motor's state and queue it for the plots."""
         state = self.motor(device_id).read_state()
+        if self.silent.answered(device_id) is not None:
+            self.publish({"type": "motor_answering", "id": device_id})
         self._plot(state)
         return state
 
@@ -612,6 +623,22 @@ class BusWorker:
                 "returns, then read back; if the motors must stop now, cut their power"
             ) from lost
 
+    def _between_read_backs(self, note: object) -> None:
+        """While the stop reads control back, the watched motors are still read at the polling
+        rate (issue 37: motors coast, and multi-turn tracking must not lose their turns)."""
+        if not isinstance(note, Idle):
+            return
+        clock = self.bus.clock
+        while True:
+            now = clock.now()
+            if now >= self._next_stop_poll:
+                self._next_stop_poll = now + 1.0 / POLL_HZ
+                self._poll()
+                now = clock.now()
+            if now >= note.until:
+                return
+            clock.sleep(min(self._next_stop_poll, note.until) - now)
+
     def _latch_stop(self, lost: PortLost) -> None:
         transport = reconnecting(self.bus.transport)
         self.stop_pending = True
@@ -631,7 +658,9 @@ class BusWorker:
         for device_id in self.known:
             self._wrote_eeprom(device_id, " after the emergency stop")
         motors = {m.id: (self._handle(m.id).procedures, m.baudrate) for m in self.motors.values()}
-        result: dict[str, Any] = self.bus.run(emergency_stop(self.bus.core, motors, ESTOP_VERIFY_SECONDS))
+        result: dict[str, Any] = self.bus.run(
+            emergency_stop(self.bus.core, motors, ESTOP_VERIFY_SECONDS), on_note=self._between_read_backs
+        )
         if latched:
             self.stop_pending = False
             transport = reconnecting(self.bus.transport)
