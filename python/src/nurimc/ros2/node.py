@@ -22,6 +22,7 @@ from ..motor import Motor, MotorState
 from ..outage import OutageGuard
 from ..protocol import FieldRangeError
 from ..protocol.host import STOP_VERIFY
+from ..service.backoff import Backoff, read_state_once
 from ..service.stop import StopResult, emergency_stop
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
@@ -94,6 +95,7 @@ class BridgeNode:
         ]
         #: called on the bus thread after each reading is published (ros2_control topics, mobile base)
         self.after_read: list[Callable[[float], list[Action]]] = []
+        self.silent = Backoff()  # motors that stopped answering (docs/service.md)
         #: given each round of readings (ID -> state or error): the bus service shares them with attached programs
         self.on_states: list[Callable[[dict[int, MotorState | Exception]], None]] = []
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
@@ -276,7 +278,27 @@ class BridgeNode:
                 return dict(self.bus.run(read_states_broadcast(procedures, self.slot)))
             except NurimcError as error:
                 return {m.id: error for m in procedures}
-        return self.bus.run(read_states(procedures))
+        # a motor that stopped answering is read less often (service/backoff.py): the others keep their rate
+        now = self.bus.clock.now()
+        due = [p for p in procedures if self.silent.due(p.id, now) and not self.silent.silent(p.id)]
+        results: dict[int, MotorState | Exception] = dict(self.bus.run(read_states(due))) if due else {}
+        for p in procedures:  # a silent motor whose wait is over: one attempt, no retries
+            if self.silent.silent(p.id) and self.silent.due(p.id, now):
+                try:
+                    results[p.id] = self.bus.run(read_state_once(p))
+                except NurimcError as error:
+                    results[p.id] = error
+        now = self.bus.clock.now()
+        for device_id, result in list(results.items()):
+            if isinstance(result, Exception):
+                if self.silent.failed(device_id, now):
+                    self._log(f"ID {device_id}: no answer; read less often (at most 1 s apart) until it answers")
+            elif self.silent.answered(device_id) is not None:
+                self._log(f"ID {device_id} answers again")
+        for p in procedures:
+            if p.id not in results:
+                results[p.id] = NurimcError(f"ID {p.id} is not answering; read again in a moment")
+        return results
 
     def read_and_publish(self) -> msgs.JointState | None:
         try:

@@ -4,7 +4,11 @@ console's worker) share, so a dead motor never costs the others their rate."""
 
 from __future__ import annotations
 
+from collections.abc import Generator
 from dataclasses import dataclass, field
+from typing import Any
+
+from ..motor import MotorProcedures, MotorState
 
 SILENT_AFTER = 2  # failed reads in a row before a motor is "not answering" (one lost frame is not)
 BACKOFF_FIRST = 0.1  # s before the first retry of a motor that does not answer
@@ -45,3 +49,11 @@ class Backoff:
         self.wait.pop(device_id, None)
         self.next_try.pop(device_id, None)
         return self.silent_since.pop(device_id, None)
+
+
+def read_state_once(motor: MotorProcedures) -> Generator[Any, Any, MotorState]:
+    """A state reading with one attempt, no retries: for a motor that has stopped answering
+    (its retries would cost the other motors their rate)."""
+    name = "request_position" if motor.line.has("request_position") else "request_speed"
+    answer = yield from motor.core.ask(motor._request(name, "a reading"), 0)
+    return motor.state_from(answer)

@@ -30,7 +30,7 @@ import itertools
 import os
 import threading
 import time
-from collections.abc import Callable, Generator, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import Future
 from dataclasses import dataclass, field, replace
 from typing import Any, TypeVar, cast
@@ -45,6 +45,7 @@ from ..outage import OutageGuard
 from ..protocol import BROADCAST_ID, SetControl
 from ..protocol.host import STOP_VERIFY
 from ..transport.reconnect import reconnecting
+from .backoff import read_state_once
 from .stop import Idle, StopResult, emergency_stop
 
 T = TypeVar("T")
@@ -587,7 +588,8 @@ class BusService:
         silent = poll.silent_since is not None
         try:
             motor = self.motor(poll.id)
-            state = self.bus.run(_read_state(motor.procedures, 0 if silent else None))
+            procedures = motor.procedures
+            state = self.bus.run(read_state_once(procedures) if silent else procedures.read_state())
         except PortLost:
             return False
         except NurimcError as error:
@@ -686,10 +688,3 @@ class BusService:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _read_state(motor: MotorProcedures, retries: int | None) -> Generator[Any, Any, MotorState]:
-    """A state reading; `retries` 0 for a motor that has stopped answering (one attempt)."""
-    name = "request_position" if motor.line.has("request_position") else "request_speed"
-    answer = yield from motor.core.ask(motor._request(name, "a reading"), retries)
-    return motor.state_from(answer)
