@@ -189,8 +189,11 @@ class BusService:
         product: str = "mc",
         stop_window: float = STOP_VERIFY,
         program: str = "nurimc",
+        say_port: bool = True,
     ) -> None:
         self.bus = bus
+        #: say a lost port and its return (False: the holder program's own outage guard says them)
+        self.say_port = say_port
         self.clock: Clock = clock or bus.clock
         self.product = product
         self.stop_window = stop_window
@@ -260,7 +263,8 @@ class BusService:
                 self.say(f"a listener failed on {event.get('type')}: {type(error).__name__}: {error}")
 
     def _port_notice(self, text: str) -> None:
-        self.say(text)
+        if self.say_port:
+            self.say(text)
         self._tell({"type": "port", "text": text, "up": not self.outage.down})
         with self._cond:
             self._cond.notify_all()

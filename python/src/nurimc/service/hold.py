@@ -35,7 +35,7 @@ def hold_port(
 ) -> Holding:
     """Start a BusService on `bus` (its own thread) and serve it to other nurimc programs.
     `motor_source`: the program's own list of motors, read at each emergency stop."""
-    service = BusService(bus, motors=motors, say=say, program=program)
+    service = BusService(bus, motors=motors, say=say, program=program, say_port=False)  # the program says them
     service.motor_source = motor_source
     if on_event is not None:
         service.listen(on_event)
