@@ -178,3 +178,10 @@ def test_a_long_port_name_still_makes_a_short_socket_path(tmp_path: Path, monkey
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(deep))
     with pytest.raises(ShareError, match="set XDG_RUNTIME_DIR to a shorter directory"):
         socket_path("/dev/ttyUSB0")
+
+
+def test_in_process_buses_are_never_shared() -> None:
+    from nurimc.service.share import shareable
+
+    assert not shareable("sim://?ids=1,&baud=115200") and not shareable("loop://")
+    assert shareable("/dev/ttyUSB0") and shareable("socket://127.0.0.1:5000")

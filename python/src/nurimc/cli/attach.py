@@ -9,7 +9,7 @@ from typing import Any
 from ..client.sync import Bus
 from ..errors import NurimcError
 from ..motor import MotorState
-from ..service.share import AttachedBus, HolderGone, connect
+from ..service.share import AttachedBus, HolderGone, connect, shareable
 from .common import say_line
 
 
@@ -30,6 +30,8 @@ def _said(event: dict[str, Any]) -> None:
 def attached_bus(port: str, baud: int, tracer: Any, command: str = "") -> Bus | None:
     """An AttachedBus when a live nurimc program holds `port`, else None (open it yourself)."""
     program = f"nurimc {command}".strip()
+    if not shareable(port):  # sim:// and loop:// are a bus of each process alone
+        return None
     conn = connect(port, program, _said)
     if conn is None:
         return None

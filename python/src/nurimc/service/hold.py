@@ -8,7 +8,7 @@ from typing import Any
 
 from ..client.sync import Bus
 from .core import BusService
-from .share import ShareError, ShareServer
+from .share import ShareError, ShareServer, shareable
 
 
 class Holding:
@@ -40,6 +40,8 @@ def hold_port(
     if on_event is not None:
         service.listen(on_event)
     service.start()
+    if not shareable(port):  # an in-process simulator: another program opening it gets a bus of its own
+        return Holding(service, None)
     try:
         server: ShareServer | None = ShareServer(service, port, say=say).start()
     except (ShareError, OSError) as error:

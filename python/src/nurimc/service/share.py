@@ -99,6 +99,16 @@ def socket_path(port: str) -> Path:
     return path
 
 
+#: port URL schemes that are a bus of this process alone (an in-process simulator, a loopback):
+#: two programs opening the same URL get two buses, so they are never shared or attached to
+PRIVATE_SCHEMES = ("sim://", "loop://")
+
+
+def shareable(port: str) -> bool:
+    """Is this port one bus for every program on the machine (a device, a network port)?"""
+    return not port.lower().startswith(PRIVATE_SCHEMES)
+
+
 # -- messages ----------------------------------------------------------------------------------
 def send_message(sock: socket.socket, message: dict[str, Any]) -> None:
     data = json.dumps(message, separators=(",", ":"), default=str).encode()
