@@ -149,9 +149,7 @@ def held(how: str) -> Iterator[Callable[[list[str]], list[str]]]:
                 group.rmdir()
         return
     core = str(max(os.sched_getaffinity(0)))
-    neighbours = [
-        subprocess.Popen(["taskset", "-c", core, sys.executable, "-c", "while True: pass"]) for _ in range(3)
-    ]
+    neighbours = [subprocess.Popen(["taskset", "-c", core, sys.executable, "-c", "while True: pass"]) for _ in range(3)]
     try:
         yield lambda cmd: ["taskset", "-c", core, *cmd]
     finally:
@@ -161,7 +159,9 @@ def held(how: str) -> Iterator[Callable[[list[str]], list[str]]]:
 
 
 def run_worker(wrap: Callable[[list[str]], list[str]], kind: str, link: str, seconds: float) -> dict[str, Any]:
-    cmd = wrap([sys.executable, str(Path(__file__).resolve()), "--worker", kind, "--link", link, "--seconds", str(seconds)])
+    cmd = wrap(
+        [sys.executable, str(Path(__file__).resolve()), "--worker", kind, "--link", link, "--seconds", str(seconds)]
+    )
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=seconds + 60)
     if out.returncode != 0:
         raise SystemExit(f"worker {kind} failed: {out.stderr.strip()[-2000:]}")
@@ -171,7 +171,18 @@ def run_worker(wrap: Callable[[list[str]], list[str]], kind: str, link: str, sec
 @contextlib.contextmanager
 def simulator(directory: str) -> Iterator[str]:
     link = os.path.join(directory, "bus")
-    cmd = [sys.executable, "-m", "nurimc.sim", "--link", link, "--baud", str(RATE), "--ids", ",".join(map(str, IDS)), "--wire-timing"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "nurimc.sim",
+        "--link",
+        link,
+        "--baud",
+        str(RATE),
+        "--ids",
+        ",".join(map(str, IDS)),
+        "--wire-timing",
+    ]
     sim = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
     try:
         assert sim.stdout is not None
@@ -207,11 +218,15 @@ def summarise(runs: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     bare, state = runs["bare"], runs["state"]
     out["bare_requests_per_s"] = round(statistics.median(rate(r) for r in bare), 1)
     out["read_state_requests_per_s"] = round(statistics.median(rate(r) for r in state), 1)
-    out["read_state_vs_bare_rate"] = round(statistics.median(rate(s) / rate(b) for s, b in zip(state, bare)), 3)
-    out["read_state_vs_bare_rate_rounds"] = [round(rate(s) / rate(b), 3) for s, b in zip(state, bare)]
+    out["read_state_vs_bare_rate"] = round(
+        statistics.median(rate(s) / rate(b) for s, b in zip(state, bare, strict=True)), 3
+    )
+    out["read_state_vs_bare_rate_rounds"] = [round(rate(s) / rate(b), 3) for s, b in zip(state, bare, strict=True)]
     out["bare_cpu_us_per_request"] = round(statistics.median(cpu_us(r) for r in bare), 1)
     out["read_state_cpu_us_per_request"] = round(statistics.median(cpu_us(r) for r in state), 1)
-    out["read_state_vs_bare_cpu"] = round(statistics.median(cpu_us(s) / cpu_us(b) for s, b in zip(state, bare)), 3)
+    out["read_state_vs_bare_cpu"] = round(
+        statistics.median(cpu_us(s) / cpu_us(b) for s, b in zip(state, bare, strict=True)), 3
+    )
     out["wire_limit_requests_per_s"] = round(1 / WIRE_REQUEST, 1)
     if "group" in runs:
         group = runs["group"]
