@@ -104,15 +104,21 @@ def worker(kind: str, link: str, seconds: float) -> dict[str, Any]:
 
         return _loop(seconds, states)
     assert kind == "bridge"
+    os.environ["CYCLONEDDS_URI"] = (  # loopback only, as the tests and ros2_bench.py
+        "<CycloneDDS><Domain Id='any'><General><Interfaces><NetworkInterface name='lo'/></Interfaces>"
+        "<AllowMulticast>false</AllowMulticast></General></Domain></CycloneDDS>"
+    )
+    os.environ.setdefault("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))
     from nurimc.ros2.bridge import Bridge
     from nurimc.ros2.dds import Participant
     from nurimc.ros2.node import BridgeNode
 
-    node = BridgeNode(bus, Bridge(ids=tuple(IDS)), Participant(), rate=0.0, log=lambda _: None)
+    bridge = Bridge(tuple(IDS), tuple(f"joint{i}" for i in IDS))
+    node = BridgeNode(bus, bridge, Participant(), rate=0.0, log=lambda _: None)
     node.prepare(discovery_wait=0.0)
 
     def publish() -> int:
-        return node.read_and_publish() is not None and all(j.error is None for j in node.bridge.joints)
+        return node.read_and_publish() is not None and not any(j.error for j in node.bridge.joints)
 
     return _loop(seconds, publish)
 
