@@ -278,6 +278,7 @@ def main() -> None:
         "rounds": rounds,
         "host": {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count()},
         "note": "shared 2-core host, busy with other work during the run (up to 9 agents)",
+        "load_average_at_start": [round(x, 1) for x in os.getloadavg()],
     }
     with tempfile.TemporaryDirectory() as directory, simulator(directory) as link:
         for name, mode in (("unconstrained", "none"), ("one_core_25_percent", how)):
@@ -290,6 +291,7 @@ def main() -> None:
             }[mode]
             result[name] = figures
             print(f"{name} ({time.perf_counter() - t0:.0f} s): {json.dumps(figures)}", flush=True)
+    result["load_average_at_end"] = [round(x, 1) for x in os.getloadavg()]
     if not args.quick:
         RESULTS.write_text(json.dumps(result, indent=2) + "\n")
         print(f"wrote {RESULTS}")

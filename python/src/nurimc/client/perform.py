@@ -181,6 +181,7 @@ def run_in_place(
     clock = performer.clock
     now = clock.now
     perform = performer.perform
+    transport, listeners = performer.transport, performer.listeners
     call_deadline = None if timeout is None else now() + timeout
     result: Any = None
     error: BaseException | None = None
@@ -194,8 +195,14 @@ def run_in_place(
             result, error = None, None
             try:
                 kind = type(action)
-                if kind is Now:  # the commonest action, answered here
+                if kind is Now:  # the commonest actions, carried out here (as Performer.perform does)
                     result = now()
+                elif kind is Send and not listeners:
+                    started = now()
+                    transport.write(action.data)  # type: ignore[union-attr]
+                    result = Sent(started, now())
+                elif kind is Discard and not listeners:
+                    result = performer.received(transport.discard_input())
                 elif kind is Receive or kind is Wait or kind is WaitUntil:
                     if call_deadline is not None and now() >= call_deadline:
                         call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
