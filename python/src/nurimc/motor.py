@@ -123,6 +123,7 @@ class MotorProcedures:
         self.profile: ProductSpec = PRODUCTS[product]
         #: the product line's message table (spec/lines.json): every frame is built in it
         self.line = product_line(product)
+        self._requests: dict[str, Request] = {}
         self.tracker = TurnTracker()
         self._relative: bool | None = None  # position mode, read before the first move
         self._target: float | None = None  # the last move's target, device degrees (None: a speed)
@@ -141,8 +142,13 @@ class MotorProcedures:
         return message
 
     def _request(self, name: str, what: str) -> Request:
+        kept = self._requests.get(name)  # a request has no fields but the ID: made once per name
+        if kept is not None:
+            return kept
         message = self._message(name, what)
         assert isinstance(message, Request)
+        if not message.SPEC.fields:
+            self._requests[name] = message
         return message
 
     def make_move_to(self, degrees: float, rpm: float | None = None, seconds: float | None = None) -> Command:
@@ -506,6 +512,10 @@ class _Call(Generic[P, T]):
     def __init__(self, procedure: Callable[Concatenate[Any, P], Procedure[T]]) -> None:
         self.procedure = procedure
         self.__doc__ = procedure.__doc__
+        self.name = procedure.__name__
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
 
     @overload
     def __get__(self, handle: None, owner: type) -> _Call[P, T]: ...
@@ -524,6 +534,11 @@ class _Call(Generic[P, T]):
         def call(*args: P.args, **kwargs: P.kwargs) -> Any:
             return run(procedure(procedures, *args, **kwargs))
 
+        # made once per handle: kept in the handle, where it is found before this descriptor
+        # (a handle's procedures and bus never change); a handle with __slots__ makes it each time
+        own = getattr(handle, "__dict__", None)
+        if own is not None:
+            own[self.name] = call
         return call
 
 

@@ -3,6 +3,12 @@
 Each family of commands lives in its own module, which exposes `register(app)` and never
 imports this one: the modules are listed once, in COMMAND_MODULES (a new one is one line
 there), and nothing imports back.
+
+Start-up (docs/performance.md): a command's module is imported only when that command runs.
+`nurimc --help` lists the commands from command_index.py (each command's module, name and help,
+written by `python scripts/cli_index.py`; tests/cli/test_startup.py fails when it is stale), so
+it imports none of them; a module missing from the index is simply imported at start (slower,
+never wrong). `app` (what scripts and tests read) is the whole tree, every module registered.
 """
 
 from __future__ import annotations
@@ -18,11 +24,13 @@ from types import FrameType
 from typing import Any
 
 import typer
+import typer.core
 import typer.main
 
 from .. import __version__
 from ..errors import NurimcError
 from ..protocol import PRODUCTS
+from .command_index import COMMAND_INDEX
 from .common import (
     CLICK_ERROR,
     EXIT_DEVICE,
@@ -39,6 +47,7 @@ from .common import (
     say_error,
 )
 from .i18n import DOMAIN, LOCALE_DIR, activated, tr, translate_help
+from .i18n import _ as tr_help
 
 #: Every module of commands (in nurimc.cli), in the order `nurimc --help` lists them.
 COMMAND_MODULES = (
@@ -58,16 +67,91 @@ COMMAND_MODULES = (
 LONG_RUNNING = frozenset({"watch", "sniff", "dashboard", "sim", "ros2", "record", "serve"})
 _invoked = [""]  # the command being run (set once the global options are parsed)
 
-app = typer.Typer(
-    name="nurimc",
-    help="Toolkit for Nurirobot MC and BLMC-H motor controllers on RS485 (MC-RS485 V1.0.1).\n\n"
+class LazyGroup(typer.core.TyperGroup):
+    """The root command: each command module is imported when one of its commands is looked up
+    to run; the help lists the not-yet-loaded commands from the index."""
+
+    def list_commands(self, ctx: Any) -> list[str]:
+        names = [name for module in COMMAND_MODULES for name in _index_names(module)]
+        return list(dict.fromkeys([*names, *self.commands]))
+
+    def get_command(self, ctx: Any, cmd_name: str) -> Any:
+        if cmd_name not in self.commands:
+            module = next((m for m in COMMAND_MODULES if cmd_name in _index_names(m)), None)
+            for name in [module] if module is not None else COMMAND_MODULES:  # not in the index: every one
+                self._load(name)
+        return self.commands.get(cmd_name)
+
+    def _load(self, module: str) -> None:
+        if module in self._loaded:
+            return
+        self._loaded.add(module)
+        for name, command in module_commands(module).items():
+            self.commands.setdefault(name, translate_help(command) if self._translated else command)
+
+    def format_commands(self, ctx: Any, formatter: Any) -> None:
+        listed = self.commands
+        try:  # the help's list without importing a command's module: stand-ins from the index
+            self.commands = {**self._stand_ins(), **listed}
+            super().format_commands(ctx, formatter)
+        finally:
+            self.commands = listed
+
+    def _stand_ins(self) -> dict[str, Any]:
+        made = {}
+        for module, entries in COMMAND_INDEX.items():
+            if module in self._loaded or module not in COMMAND_MODULES:
+                continue
+            for name, text, short, hidden in entries:
+                made[name] = typer.core.TyperCommand(
+                    name, help=_help(text, self._translated), short_help=_help(short, self._translated), hidden=hidden
+                )
+        return made
+
+    _loaded: set[str]
+    _translated = False
+
+
+def module_commands(module: str) -> dict[str, Any]:
+    """The click commands a command module registers (importing it), by name, in its order."""
+    tree = typer.Typer(rich_markup_mode=None, add_completion=False, pretty_exceptions_enable=False)
+    tree.callback()(_nothing)  # always a group, whose commands are taken over
+    import_module(f"{__package__}.{module}").register(tree)
+    return dict(typer.main.get_command(tree).commands)  # type: ignore[attr-defined]
+
+
+def command_index() -> dict[str, tuple[tuple[str, str | None, str | None, bool], ...]]:
+    """What command_index.py holds, worked out by importing every command module."""
+    return {
+        module: tuple((name, c.help, c.short_help, bool(c.hidden)) for name, c in module_commands(module).items())
+        for module in COMMAND_MODULES
+    }
+
+
+def _nothing() -> None:
+    """A sub-tree's callback (never run: its commands run under the root)."""
+
+
+def _help(text: str | None, translated: bool) -> str | None:
+    return tr_help(text) if text and translated else text
+
+
+def _index_names(module: str) -> list[str]:
+    return [entry[0] for entry in COMMAND_INDEX.get(module, ())]
+
+
+ROOT: dict[str, Any] = {
+    "name": "nurimc",
+    "help": "Toolkit for Nurirobot MC and BLMC-H motor controllers on RS485 (MC-RS485 V1.0.1).\n\n"
     "Example: nurimc --port /dev/ttyUSB0 --baud 115200 --id 1 status",
-    no_args_is_help=True,
-    pretty_exceptions_enable=False,
-    rich_markup_mode=None,
-    add_completion=False,
-    context_settings={"help_option_names": ["-h", "--help"]},
-)
+    "no_args_is_help": True,
+    "pretty_exceptions_enable": False,
+    "rich_markup_mode": None,
+    "add_completion": False,
+    "context_settings": {"help_option_names": ["-h", "--help"]},
+}
+#: what main() runs: the global options and the built-in commands; the rest come as looked up
+root = typer.Typer(cls=LazyGroup, **ROOT)
 
 
 def _print_version(shown: bool) -> None:
@@ -76,7 +160,6 @@ def _print_version(shown: bool) -> None:
         raise typer.Exit(EXIT_OK)
 
 
-@app.callback()
 def main_options(
     ctx: typer.Context,
     port: str = typer.Option(
@@ -123,18 +206,44 @@ def version() -> None:
     typer.echo(__version__)
 
 
-for _name in COMMAND_MODULES:
-    import_module(f"{__package__}.{_name}").register(app)
-app.command()(conformance)
-app.command()(version)
+root.callback()(main_options)
+root.command()(conformance)
+root.command()(version)
+#: modules that are not in the index (added since it was written): imported at start
+_UNINDEXED = [m for m in COMMAND_MODULES if m not in COMMAND_INDEX]
 
 
 @functools.cache
 def _built(catalog_file: str | None) -> Any:
     """The click command typer builds from `app`, built once per language (16 ms each time:
-    the in-process tests call main() thousands of times), its help in that language."""
-    command = typer.main.get_command(app)
-    return translate_help(command) if catalog_file else command
+    the in-process tests call main() thousands of times), its help in that language. Command
+    modules are imported as their commands are looked up (LazyGroup)."""
+    command = typer.main.get_command(root)
+    command._loaded = set()
+    command._translated = bool(catalog_file)
+    if catalog_file:
+        translate_help(command)
+    for module in _UNINDEXED:
+        command._load(module)
+    return command
+
+
+@functools.cache
+def _whole_app() -> typer.Typer:
+    whole = typer.Typer(**ROOT)
+    whole.callback()(main_options)
+    for module in COMMAND_MODULES:
+        import_module(f"{__package__}.{module}").register(whole)
+    whole.command()(conformance)
+    whole.command()(version)
+    return whole
+
+
+def __getattr__(name: str) -> Any:
+    """`app` with every command (scripts/catalogs.py, tests): each module registered on first use."""
+    if name == "app":
+        return _whole_app()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _command() -> Any:

@@ -15,7 +15,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import rich.table
 import typer
@@ -23,14 +23,14 @@ from rich.console import Console
 from rich.text import Text
 from typer.core import TyperCommand
 
-from ..client.sync import Bus
 from ..errors import InputError
 from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
-from ..motor import Motor
-from ..products import detect_line
 from ..protocol import BAUD_RATES, StreamParser
-from ..transport import RS485
 from .i18n import tr
+
+if TYPE_CHECKING:  # the bus client (pyserial and all) loads when a command opens a bus, not for --help
+    from ..client.sync import Bus
+    from ..motor import Motor
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
 EXIT_TERMINATED = 143  # SIGTERM during a one-shot command (128 + 15, the shell's convention)
@@ -215,6 +215,9 @@ class FramePrinter:
 def open_bus(o: Options, reconnect: bool = False, attach: bool = True) -> Bus:
     """The bus of --port; reconnect: reopen it when it goes away (long-running tools: outage.py).
     When another nurimc program holds the port, the bus is attached to it (docs/service.md)."""
+    from ..client.sync import Bus
+    from ..transport import RS485
+
     port = o.port or os.environ.get("NURIMC_PORT")
     if not port:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
@@ -237,6 +240,8 @@ def motor_for(bus: Bus, o: Options, device_id: int, *, acts: bool = True) -> Mot
     """The motor handle of a command in its product line: --product if given, else the line the
     controller answers as (nurimc.products). A command that acts is refused when the line cannot
     be told (the same bytes mean other commands in other lines); a read goes ahead as MC."""
+    from ..products import detect_line
+
     if o.product_given:
         return bus.motor(device_id, o.product)
     if device_id not in bus.core.products:

@@ -10,7 +10,6 @@ loaded host as on an idle one.
 
 from __future__ import annotations
 
-import asyncio
 import threading
 import time
 from collections.abc import Callable
@@ -40,6 +39,8 @@ class RealClock:
             time.sleep(seconds)
 
     async def sleep_async(self, seconds: float) -> None:
+        import asyncio  # here: a sync program (the CLI) never loads asyncio
+
         await asyncio.sleep(max(0.0, seconds))
 
 
@@ -96,4 +97,6 @@ class VirtualClock:
 
     async def sleep_async(self, seconds: float) -> None:
         self.sleep(seconds)
+        import asyncio
+
         await asyncio.sleep(0)  # other tasks still get their turn, as in a real sleep

@@ -50,7 +50,7 @@ class BusStats:
         return dict(self.__dict__)
 
 
-@dataclass
+@dataclass(slots=True)
 class Owed:
     """An answer an ID may still send: of class `kind`, to a request sent in order `order`; none
     is expected after `until` (host clock)."""
@@ -62,6 +62,11 @@ class Owed:
 
 #: fences tried before a request falls back to waiting out the answers its ID owes
 FENCES = 2
+#: requests whose frame and answer class are kept (a bus asks few different things, again and again)
+PLANS = 1024
+# actions without fields: one of each serves every yield (frozen, so nobody can change them)
+NOW = Now()
+DISCARD = Discard()
 
 
 @dataclass
@@ -96,6 +101,8 @@ class BusCore:
     _now: float = 0.0  # host time the last bytes were received
     #: seconds from the last broadcast request's write call to the last byte heard after it (None: silence)
     broadcast_span: float | None = None
+    #: per request: (its frame, its answer class, the answer's length), worked out once (docs/performance.md)
+    _plans: dict[Request, tuple[bytes, type[Message], int]] = field(default_factory=dict, repr=False)
 
     # -- busy windows ------------------------------------------------------------------------
     def window(self, device_id: int) -> float:
@@ -121,7 +128,7 @@ class BusCore:
         if not self._waits_pending:
             return
         when = max(self.busy_until(i) for i in ids)
-        now = yield Now()
+        now = yield NOW
         if when > now:
             self.stats.busy_waits += 1
             now = yield WaitUntil(when)
@@ -226,7 +233,7 @@ class BusCore:
         if not taken:
             return
         gap = max(taken) + 2 * self.timing.wire_time(1, self.baudrate)
-        now = yield Now()
+        now = yield NOW
         if now < gap:
             yield WaitUntil(gap)
 
@@ -234,7 +241,7 @@ class BusCore:
         """Before asking an ID for `kind` while it may still send a late `kind` answer: ask it
         something whose answer is of another class. Its answer proves (answers come in order)
         that the late one came or never will; if no fence is answered, wait the owed answers out."""
-        now = yield Now()
+        now = yield NOW
         self.forget_expired(now)
         if not self.owes(device_id, kind):
             return
@@ -255,7 +262,7 @@ class BusCore:
                 # no more than the fence's answer: a read returns as soon as that much has come
                 data = yield Receive(max(1, answer_cls.SPEC.size + 4 - parser.pending), sent.finished + deadline)
                 if data:
-                    self._now = yield Now()
+                    self._now = yield NOW
                 for message in parser.feed(data) if data else parser.finish():
                     if message.id == device_id and isinstance(message, Request):
                         self.stats.echo_frames += 1
@@ -278,7 +285,7 @@ class BusCore:
         """Listen until the answers these IDs still owe (of `kind`, or any) came or cannot come."""
         if not self._owed:
             return
-        now = yield Now()
+        now = yield NOW
         parser = StreamParser()
         counted = False
         while True:
@@ -291,17 +298,20 @@ class BusCore:
                 counted = True
             data = yield Receive(64, max(waiting))
             if data:
-                self._now = yield Now()
+                self._now = yield NOW
             for message in parser.feed(data) if data else parser.finish():
                 self._settle_frame(message)
-            now = yield Now()
+            now = yield NOW
         self.stats.dropped_bytes += parser.stats.dropped_bytes
 
     def _discard(self) -> Procedure[None]:
-        data = yield Discard()
-        if not data:
-            return
-        self._now = yield Now()
+        data = yield DISCARD
+        if data:
+            yield from self._discarded(data)
+
+    def _discarded(self, data: bytes) -> Procedure[None]:
+        """Settle what a discard dropped (answers that came late count as what they answer)."""
+        self._now = yield NOW
         parser = StreamParser()
         for message in [*parser.feed(data), *parser.finish()]:
             if isinstance(message, Request):
@@ -320,33 +330,45 @@ class BusCore:
         asking its missing motors again)."""
         attempts = 1 + (self.retries if retries is None else retries)
         self.in_its_line(request)
-        cls = answer_class(type(request))
         rid = request.id
-        frame = request.encode()
-        answer_len = cls.SPEC.size + 4
+        plan = self._plans.get(request)
+        if plan is None:
+            plan = self._plan(request)
+        frame, cls, answer_len = plan
         response_time = self.response_times.get(rid)
         deadline = self.timing.answer_deadline(len(frame), answer_len, self.baudrate, response_time)
-        if not own_pending:
+        # the common case costs no action: nothing owed by this ID (no fence), no answer of this
+        # class taken from it before (no gap), no EEPROM busy window pending (no wait)
+        if not own_pending and rid in self._owed:
             yield from self._fence(rid, cls)
-        yield from self._duplicate_gap([rid], cls)
+        last = self._last_seen.get(rid)
+        if last is not None and type(last[0]) is cls:  # _duplicate_gap for one ID, inline
+            gap = last[1] + 2 * self.timing.wire_time(1, self.baudrate)
+            if (yield NOW) < gap:
+                yield WaitUntil(gap)
         failure: Exception | None = None
         first_sent: float | None = None
+        stats = self.stats
         for attempt in range(1, attempts + 1):
             if attempt > 1:
-                self.stats.retries += 1
+                stats.retries += 1
                 yield Wait(self.retry_pause)
-            yield from self._wait_until_free([rid])
-            yield from self._discard()
+            if self._waits_pending:
+                yield from self._wait_until_free([rid])
+            held = yield DISCARD  # _discard, inline: the usual discard finds nothing
+            if held:
+                yield from self._discarded(held)
             sent: Sent = yield Send(frame)
             first_sent = sent.started if first_sent is None else first_sent
-            self.stats.requests += 1
-            self._owe(rid, cls, sent.finished + deadline + self.late_answer)
+            stats.requests += 1
+            until = sent.finished + deadline
+            self._owe(rid, cls, until + self.late_answer)
             parser = StreamParser(line=request.LINE)  # the answer in the request's product line
             others: list[Message] = []
             while True:
-                data = yield Receive(max(1, answer_len - parser.pending), sent.finished + deadline)
+                data = yield Receive(max(1, answer_len - parser.pending), until)
                 if data:
-                    self._now = yield Now()
+                    self._now = yield NOW
                 frames = parser.feed(data) if data else parser.finish()
                 for message in frames:
                     if type(message) is cls and message.id == rid:
@@ -366,6 +388,15 @@ class BusCore:
         self.stats.no_answer += 1
         assert failure is not None
         raise failure
+
+    def _plan(self, request: Request) -> tuple[bytes, type[Message], int]:
+        """A request's frame, answer class and answer length (kept for the next time it is asked)."""
+        cls = answer_class(type(request))
+        plan = (request.encode(), cls, cls.SPEC.size + 4)
+        if len(self._plans) >= PLANS:
+            self._plans.clear()
+        self._plans[request] = plan
+        return plan
 
     def _failure(
         self, request: Request, attempts: int, parser: StreamParser, others: list[Message], sent_at: float
@@ -432,7 +463,7 @@ class BusCore:
         cls = answer_class(request_cls)
         wanted: set[int] | None = None
         if ids is not None:
-            self.forget_expired((yield Now()))
+            self.forget_expired((yield NOW))
             # an ID that may still send a late answer of this class cannot be told from its fresh
             # one here: its answer only settles what it owes, and it is asked again on its own
             wanted = {i for i in ids if not self.owes(i, cls)}
@@ -450,7 +481,7 @@ class BusCore:
         while True:
             data = yield Receive(cls.SPEC.size + 4, until)
             if data:
-                self._now = yield Now()
+                self._now = yield NOW
                 self.broadcast_span = self._now - sent.started  # from before the write: never short
                 until = sent.finished + window
             for message in parser.feed(data) if data else parser.finish():
@@ -477,7 +508,7 @@ class BusCore:
         size = cls.SPEC.size + 4
         char = self.timing.wire_time(1, self.baudrate)
         parser, got = StreamParser(), list[Message]()
-        held = yield Discard()  # what came since the last probe: late answers still count
+        held = yield DISCARD  # what came since the last probe: late answers still count
         if held:
             early = StreamParser()
             for message in [*early.feed(held), *early.finish()]:
@@ -493,7 +524,7 @@ class BusCore:
             data = yield Receive(max(1, size - parser.pending), until)
             if data and not began:
                 began = True
-                self._now = yield Now()
+                self._now = yield NOW
                 until = max(until, self._now + (size + 1) * char + self.timing.latency)
             for message in parser.feed(data) if data else parser.finish():
                 if type(message) is cls:

@@ -1,9 +1,12 @@
 """Carrying out actions, once for both drivers (docs/drivers.md).
 
-`steps` is the one trampoline: it steps a procedure, performs every action that does not
+`steps` is the trampoline: it steps a procedure, performs every action that does not
 block (send, discard, baud, note, the clock) itself, and hands the driver only what blocks,
 as a `ReadFor` or a `SleepFor` already cut to the call's deadline. The sync and asyncio
-drivers differ in just how they carry those two out.
+drivers differ in just how they carry those two out. `run_in_place` is the same loop for the
+sync driver, which calls its read and sleep where `steps` yields (the request path's cost,
+docs/performance.md); what a blocking action asks and what it returns (`_blocking`,
+`_blocked`) is shared by both.
 """
 
 from __future__ import annotations
@@ -48,6 +51,16 @@ Steps = Generator[Blocking, Any, T]
 class Performer:
     """Performs the non-blocking actions and hands every byte to the listeners."""
 
+    __slots__ = (
+        "_late_read_for",
+        "_late_read_found",
+        "_late_reads_began",
+        "clock",
+        "listeners",
+        "on_note",
+        "transport",
+    )
+
     def __init__(
         self,
         transport: Transport,
@@ -91,17 +104,19 @@ class Performer:
         return data
 
     def perform(self, action: Action) -> Any:
-        if type(action) is Send:
-            started = self.clock.now()
-            self.transport.write(action.data)
-            sent = Sent(started, self.clock.now())
+        kind = type(action)
+        if kind is Send:
+            now = self.clock.now
+            started = now()
+            self.transport.write(action.data)  # type: ignore[union-attr]
+            sent = Sent(started, now())
             for listener in self.listeners:
-                listener.record("tx", action.data)
+                listener.record("tx", action.data)  # type: ignore[union-attr]
             return sent
-        if type(action) is Now:
-            return self.clock.now()
-        if type(action) is Discard:
+        if kind is Discard:
             return self.received(self.transport.discard_input())
+        if kind is Now:
+            return self.clock.now()
         if type(action) is SetHostBaud:
             self.transport.baudrate = action.rate
             return None
@@ -119,50 +134,118 @@ def steps(procedure: Procedure[T], performer: Performer, timeout: float | None =
     An error performing an action (a port that fails, an interrupt, a cancellation) is thrown
     into the procedure at the action that failed, so its `except`/`finally` can restore the
     bus; when `timeout` seconds have passed, CallTimeout is thrown in at the next blocking
-    action. A procedure left unfinished is closed."""
+    action. A procedure left unfinished is closed. (`run_in_place` is the same loop for a
+    driver that blocks where it stands: keep the two alike.)"""
     clock = performer.clock
-    call_deadline = None if timeout is None else clock.now() + timeout
+    now = clock.now
+    perform = performer.perform
+    call_deadline = None if timeout is None else now() + timeout
     result: Any = None
     error: BaseException | None = None
+    send = procedure.send
     try:
         while True:
             try:
-                action: Action = procedure.send(result) if error is None else procedure.throw(error)
+                action: Action = send(result) if error is None else procedure.throw(error)
             except StopIteration as stop:
                 return stop.value  # type: ignore[no-any-return]
             result, error = None, None
             try:
                 kind = type(action)
-                if kind is Receive or kind is Wait or kind is WaitUntil:
-                    if call_deadline is not None and clock.now() >= call_deadline:
+                if kind is Now:  # the commonest action, answered here
+                    result = now()
+                elif kind is Receive or kind is Wait or kind is WaitUntil:
+                    if call_deadline is not None and now() >= call_deadline:
                         call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
                         raise CallTimeout(f"the bus call took longer than {timeout:g} s and was abandoned")
-                    result = yield from _block(action, performer, call_deadline)
+                    block = _blocking(action, performer, call_deadline)
+                    result = _blocked(action, performer, block, (yield block) if block is not None else b"")
                 else:
-                    result = performer.perform(action)
+                    result = perform(action)
             except BaseException as err:  # every failure goes to the procedure (docs/drivers.md)
                 error = err
     finally:
         procedure.close()
 
 
-def _block(action: Action, performer: Performer, call_deadline: float | None) -> Generator[Blocking, Any, Any]:
+def run_in_place(
+    procedure: Procedure[T],
+    performer: Performer,
+    timeout: float | None,
+    read: Callable[[int, float], bytes],
+    sleep: Callable[[float], None],
+) -> T:
+    """`steps` for a driver that blocks where it stands (the sync Bus): the same stepping, error
+    routing and call timeout, with what blocks carried out by calling `read` and `sleep` instead
+    of yielding it to a second loop (one generator switch less per action; docs/performance.md)."""
     clock = performer.clock
-    if type(action) is Receive:
-        until = action.until if call_deadline is None else min(action.until, call_deadline)
+    now = clock.now
+    perform = performer.perform
+    transport, listeners = performer.transport, performer.listeners
+    call_deadline = None if timeout is None else now() + timeout
+    result: Any = None
+    error: BaseException | None = None
+    send = procedure.send
+    try:
+        while True:
+            try:
+                action: Action = send(result) if error is None else procedure.throw(error)
+            except StopIteration as stop:
+                return stop.value  # type: ignore[no-any-return]
+            result, error = None, None
+            try:
+                kind = type(action)
+                if kind is Now:  # the commonest actions, carried out here (as Performer.perform does)
+                    result = now()
+                elif kind is Send and not listeners:
+                    started = now()
+                    transport.write(action.data)  # type: ignore[union-attr]
+                    result = Sent(started, now())
+                elif kind is Discard and not listeners:
+                    result = performer.received(transport.discard_input())
+                elif kind is Receive or kind is Wait or kind is WaitUntil:
+                    if call_deadline is not None and now() >= call_deadline:
+                        call_deadline = None  # thrown once; the procedure's cleanup may still use the bus
+                        raise CallTimeout(f"the bus call took longer than {timeout:g} s and was abandoned")
+                    block = _blocking(action, performer, call_deadline)
+                    if block is None:
+                        data = b""
+                    elif type(block) is ReadFor:
+                        data = read(block.max_bytes, block.seconds)
+                    else:
+                        data = b""
+                        sleep(block.seconds)
+                    result = _blocked(action, performer, block, data)
+                else:
+                    result = perform(action)
+            except BaseException as err:  # every failure goes to the procedure (docs/drivers.md)
+                error = err
+    finally:
+        procedure.close()
+
+
+def _blocking(action: Action, performer: Performer, call_deadline: float | None) -> Blocking | None:
+    """What a blocking action asks of the driver, cut to the call's deadline (None: nothing)."""
+    kind = type(action)
+    if kind is Receive:
+        until = action.until if call_deadline is None else min(action.until, call_deadline)  # type: ignore[union-attr]
         wait = performer.read_timeout(until)
-        if wait is None:
-            return b""
-        data = yield ReadFor(action.max_bytes, wait)
-        return performer.received(data)
-    if type(action) is Wait:
-        seconds = action.seconds if call_deadline is None else min(action.seconds, call_deadline - clock.now())
-        if seconds > 0:
-            yield SleepFor(seconds)
-        return None
-    assert type(action) is WaitUntil
-    when = action.when if call_deadline is None else min(action.when, call_deadline)
+        return None if wait is None else ReadFor(action.max_bytes, wait)  # type: ignore[union-attr]
+    clock = performer.clock
+    if kind is Wait:
+        seconds = action.seconds if call_deadline is None else min(action.seconds, call_deadline - clock.now())  # type: ignore[union-attr]
+        return SleepFor(seconds) if seconds > 0 else None
+    assert kind is WaitUntil
+    when = action.when if call_deadline is None else min(action.when, call_deadline)  # type: ignore[union-attr]
     delay = when - clock.now()
-    if delay > 0:
-        yield SleepFor(delay)
-    return clock.now()
+    return SleepFor(delay) if delay > 0 else None
+
+
+def _blocked(action: Action, performer: Performer, block: Blocking | None, data: Any) -> Any:
+    """The action's result once the driver has done what `_blocking` asked (`data`: what it read)."""
+    kind = type(action)
+    if kind is Receive:
+        return b"" if block is None else performer.received(data)
+    if kind is Wait:
+        return None
+    return performer.clock.now()

@@ -13,7 +13,7 @@ from .actions import Procedure
 from .clock import REAL_CLOCK, Clock
 from .log import FrameRecorder
 from .options import Listeners, make_core
-from .perform import Performer, ReadFor, steps
+from .perform import Performer, run_in_place
 from .timing import Timing
 
 T = TypeVar("T")
@@ -29,29 +29,15 @@ def drive(
 ) -> T:
     """Carry out a procedure's actions on a transport until it returns (docs/drivers.md).
 
-    The trampoline (`perform.steps`) does the stepping, the error routing and the call
-    timeout; this driver only blocks: reads on the transport, sleeps on `clock` (default: the
-    real one)."""
+    The trampoline (`perform.run_in_place`: `perform.steps` for a driver that blocks in place)
+    does the stepping, the error routing and the call timeout; this driver only blocks: reads
+    on the transport, sleeps on `clock` (default: the real one)."""
     if listeners is None:
         listeners = ()
-    elif not isinstance(listeners, Sequence):
+    elif type(listeners) is not list and not isinstance(listeners, Sequence):  # a list: no ABC check
         listeners = (listeners,)
-    stepper = steps(procedure, Performer(transport, listeners, on_note, clock), timeout)
-    result: Any = None
-    error: BaseException | None = None
-    while True:
-        try:
-            block = stepper.send(result) if error is None else stepper.throw(error)
-        except StopIteration as stop:
-            return stop.value  # type: ignore[no-any-return]
-        result, error = None, None
-        try:
-            if type(block) is ReadFor:
-                result = transport.read(block.max_bytes, block.seconds)
-            else:
-                (clock or REAL_CLOCK).sleep(block.seconds)
-        except BaseException as err:  # thrown into the procedure at the action that failed
-            error = err
+    performer = Performer(transport, listeners, on_note, clock)
+    return run_in_place(procedure, performer, timeout, transport.read, performer.clock.sleep)
 
 
 class Bus:

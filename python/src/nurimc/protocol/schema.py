@@ -55,14 +55,13 @@ class MessageSpec:
     request: str | None = None  # for answers: the request's name
     max_id: int = 0xFE  # 0xFF (broadcast) is allowed for commands only
     layout: struct.Struct = field(init=False, repr=False, compare=False)
+    #: the fields' names, in wire order (worked out once: every reading's fields() uses them)
+    field_names: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         codes = "".join("B" if f.width == 1 else "H" for f in self.fields)
         object.__setattr__(self, "layout", struct.Struct(">" + codes))
-
-    @property
-    def field_names(self) -> tuple[str, ...]:
-        return tuple(f.name for f in self.fields)
+        object.__setattr__(self, "field_names", tuple(f.name for f in self.fields))
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,6 +12,7 @@ response time in microseconds (100 us), reduction ratio as n:1 (0.1).
 
 from __future__ import annotations
 
+import functools
 import math
 from decimal import ROUND_HALF_UP, Decimal, localcontext
 
@@ -28,9 +29,14 @@ def to_wire(value: float, scale: float) -> int:
 
 def from_wire(raw: int, scale: float) -> float:
     """Wire integer -> physical value, exact to the scale's decimals."""
+    return round(raw * scale, _decimals(scale))
+
+
+@functools.lru_cache(maxsize=64)
+def _decimals(scale: float) -> int:
+    """Decimals of a scale (0.01 -> 2, 100 -> 0): worked out once per scale (every reading uses it)."""
     exponent = Decimal(repr(scale)).normalize().as_tuple().exponent
-    decimals = -exponent if isinstance(exponent, int) and exponent < 0 else 0
-    return round(raw * scale, decimals)
+    return -exponent if isinstance(exponent, int) and exponent < 0 else 0
 
 
 def degrees_to_wire(degrees: float, scale: float = 0.01) -> int:

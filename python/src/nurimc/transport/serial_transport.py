@@ -9,6 +9,7 @@ import logging
 import os
 import select
 import socket
+import struct
 import time
 from typing import Any, Literal, overload
 
@@ -21,11 +22,16 @@ from .latency import estimate_latency
 from .rs485 import RS485, RtsDirection, enable_rs485, rs485_options
 
 try:  # pyserial lets termios.error (not an OSError) out of tcsetattr on a refused rate
+    import fcntl
     import termios
 
     TERMIOS_ERRORS: tuple[type[Exception], ...] = (termios.error,)
+    #: the ioctl that tells how many bytes wait to be read (what pyserial's in_waiting asks)
+    INQ: int | None = getattr(termios, "TIOCINQ", getattr(termios, "FIONREAD", None))
 except ImportError:  # pragma: no cover - not POSIX
     TERMIOS_ERRORS = ()
+    INQ = None
+_ZERO = struct.pack("I", 0)
 #: what setting a rate may raise (pyserial, the OS, termios)
 SET_RATE_ERRORS: tuple[type[Exception], ...] = (serial.SerialException, OSError, ValueError, *TERMIOS_ERRORS)
 
@@ -82,6 +88,10 @@ class SerialTransport:
             self._fd = port.fileno()
         except (AttributeError, OSError, ValueError, NotImplementedError):
             self._fd = None
+        #: a POSIX serial device or pty (pyserial's own class, non-blocking fd): written and asked
+        #: for waiting bytes on its fd directly, a few system calls and pyserial's Python fewer a
+        #: request (docs/performance.md); anything else goes through pyserial
+        self._direct: int | None = self._fd if type(port) is serial.Serial and INQ is not None else None
 
     @property
     def baudrate(self) -> int:
@@ -103,6 +113,13 @@ class SerialTransport:
         try:
             if self.direction is not None:
                 self.direction.write(self.port, data)
+            elif self._direct is not None:
+                try:
+                    written = os.write(self._direct, data)
+                except BlockingIOError:  # the output buffer is full: pyserial waits for room
+                    written = 0
+                if written < len(data):
+                    self.port.write(data[written:])
             else:
                 self.port.write(data)
         except (serial.SerialException, OSError) as err:
@@ -120,8 +137,12 @@ class SerialTransport:
 
     @staticmethod
     def _read_fd(fd: int, max_bytes: int, timeout: float) -> bytes:
-        data = b""
         deadline = time.monotonic() + timeout
+        if timeout <= 0 or not select.select([fd], [], [], timeout)[0]:
+            return b""
+        data = os.read(fd, max_bytes)  # the first chunk: often the whole answer
+        if not data:
+            raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
         while len(data) < max_bytes:
             remaining = deadline - time.monotonic()
             if remaining <= 0 or not select.select([fd], [], [], remaining)[0]:
@@ -135,6 +156,8 @@ class SerialTransport:
     def discard_input(self) -> bytes:
         stale = b""
         try:
+            if self._direct is not None and not struct.unpack("I", fcntl.ioctl(self._direct, INQ or 0, _ZERO))[0]:
+                return stale  # the usual case: nothing waits (pyserial's in_waiting, without its Python)
             while self.port.in_waiting:
                 stale += self.port.read(self.port.in_waiting)
         except (serial.SerialException, OSError) as err:
@@ -142,6 +165,7 @@ class SerialTransport:
         return stale
 
     def close(self) -> None:
+        self._fd = self._direct = None  # its number may be another file's soon: pyserial says "not open"
         self.port.close()
 
 
