@@ -55,3 +55,44 @@ def test_tracker_unwraps_across_the_655_36_degree_wrap() -> None:
 def test_tracker_follows_negative_motion() -> None:
     tracker = TurnTracker()
     assert [tracker.update(p) for p in (10.0, -20.0, -300.0)] == pytest.approx([10.0, -20.0, -300.0])
+
+
+def test_tracker_uses_the_speed_and_the_time_to_count_whole_turns() -> None:
+    """At 3,000 RPM (18,000 deg/s) read every 50 ms the shaft turns 900 deg between readings:
+    the shortest way would say 244.64 deg; the speed says 900."""
+    tracker = TurnTracker()
+    wrap = 655.36
+    truth = [18_000.0 * 0.05 * i for i in range(6)]
+    for i, angle in enumerate(truth):
+        device = angle % wrap
+        got = tracker.step(device, 18_000.0, i * 0.05)
+        assert got.position == pytest.approx(angle)
+        assert not got.uncertain
+    assert tracker.sign == 1  # position feedback's speed had no sign: the trend gave it
+
+
+def test_tracker_marks_a_gap_the_speed_cannot_decide_and_keeps_the_mark() -> None:
+    tracker = TurnTracker()
+    tracker.step(0.0, 9_000.0, 0.0)
+    tracker.step(90.0, 9_000.0, 0.01)
+    step = tracker.step(123.0, 9_000.0, 1.01)  # a second at 1,500 RPM: any of many turns
+    assert step.uncertain and tracker.guesses == 1
+    assert tracker.step(213.0, 9_000.0, 1.02).uncertain  # the turns stay unknown
+    tracker.reset()
+    assert not tracker.step(10.0, 0.0, 2.0).uncertain
+
+
+def test_tracker_signed_speed_decides_the_direction() -> None:
+    tracker = TurnTracker()
+    tracker.step(0.0, -270.0, 0.0, signed=True)  # -45 RPM
+    step = tracker.step(-2.7, -270.0, 0.01, signed=True)
+    assert step.position == pytest.approx(-2.7) and step.speed == -270.0 and tracker.sign == -1
+
+
+def test_travel_range_bounds_what_a_shaft_can_do() -> None:
+    from nurimc.multiturn import travel_range
+
+    assert travel_range(100.0, 100.0, 0.1, 1000.0, 10_000.0) == pytest.approx((7.5, 12.5))
+    assert travel_range(0.0, 1000.0, 0.1, 1000.0, 10_000.0) is None  # needs 10,000 deg/s^2
+    lo, hi = travel_range(0.0, 0.0, 1.0, 1000.0, 100.0)  # type: ignore[misc]
+    assert hi == pytest.approx(90.0) and lo == pytest.approx(-90.0)  # capped at the top speed

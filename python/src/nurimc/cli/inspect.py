@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import sys
 import time
@@ -202,6 +203,8 @@ def status(ctx: typer.Context) -> None:
     with open_bus(o) as bus:
         motor = motor_for(bus, o, device_id, acts=False)
         state = motor.read_state()
+        if not state.speed_signed:  # one reading has no trend: speed feedback's direction byte signs it
+            state = dataclasses.replace(state, speed=motor.read_speed(), speed_signed=True)
         settings = motor.read_settings()
     unfinished = RestoreJournal(o.port or os.environ.get("NURIMC_PORT", "")).pending(device_id)
     if unfinished is not None:  # the settings below are part old, part restored (docs/cli.md)
