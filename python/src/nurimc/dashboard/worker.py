@@ -202,7 +202,12 @@ class BusWorker:
         for device_id in sorted(self.motors):
             try:
                 state = self._sample(device_id)
-                states[str(device_id)] = {"position": state.position, "speed": state.speed, "current": state.current}
+                states[str(device_id)] = {
+                    "position": state.position,
+                    "speed": state.speed,
+                    "current": state.current,
+                    "position_uncertain": state.position_uncertain,
+                }
             except PortLost:
                 return
             except NurimcError as error:
@@ -298,7 +303,9 @@ class BusWorker:
         device_id = state.id
         self.reads += 1
         t = round(time.monotonic() - self.clock_origin, 4)
+        # the 7th column: 1 when the continuous position may be off by whole turns (nurimc.multiturn)
         row = [device_id, t, state.position, state.speed, state.current, state.device_position]
+        row.append(1 if state.position_uncertain else 0)
         with self._samples_lock:
             self._samples.append(row)
 

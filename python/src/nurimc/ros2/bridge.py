@@ -255,6 +255,8 @@ class Bridge:
                 level, message = msgs.DIAGNOSTIC_STALE, "not read yet"
             elif self.estop_latched:
                 level, message = msgs.DIAGNOSTIC_WARN, "released by estop (latched)"
+            elif joint.state.position_uncertain:  # nurimc.multiturn: whole turns may be missing
+                level, message = msgs.DIAGNOSTIC_WARN, "position uncertain: readings too far apart for the speed"
             else:
                 level, message = msgs.DIAGNOSTIC_OK, joint.mode
             values = {
@@ -265,7 +267,11 @@ class Bridge:
                 "failed_reads": joint.failures,
             }
             if joint.state is not None:
-                values |= {"position_rad": round(deg_to_rad(joint.state.position), 5), "current_a": joint.state.current}
+                values |= {
+                    "position_rad": round(deg_to_rad(joint.state.position), 5),
+                    "position_uncertain": joint.state.position_uncertain,
+                    "current_a": joint.state.current,
+                }
             statuses.append(
                 msgs.DiagnosticStatus(
                     level=level,
