@@ -77,6 +77,12 @@ class Joint:
     commanded_at: float = -math.inf  # when the last velocity command arrived
     state: MotorState | None = None
     sign: float = 1.0  # direction of travel between the last two readings
+
+    def signed_rpm(self) -> float:
+        """The joint's signed speed: the reading's (one rule, docs/library.md), or while it has no
+        sign yet (the first reading of a turning motor) the direction between the last readings."""
+        assert self.state is not None
+        return self.state.speed if self.state.speed_signed else self.sign * abs(self.state.speed)
     reads: int = 0
     failures: int = 0
     error: str = ""
@@ -241,7 +247,7 @@ class Bridge:
             header=msgs.Header(stamp=msgs.Time.from_ns(stamp_ns)),
             name=[j.name for j in read],
             position=[deg_to_rad(j.state.position) for j in read if j.state],
-            velocity=[j.sign * rpm_to_rad_s(j.state.speed) for j in read if j.state],
+            velocity=[rpm_to_rad_s(j.signed_rpm()) for j in read if j.state],
             effort=[j.state.current for j in read if j.state],
         )
 
