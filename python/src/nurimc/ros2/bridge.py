@@ -77,15 +77,15 @@ class Joint:
     commanded_at: float = -math.inf  # when the last velocity command arrived
     state: MotorState | None = None
     sign: float = 1.0  # direction of travel between the last two readings
+    reads: int = 0
+    failures: int = 0
+    error: str = ""
 
     def signed_rpm(self) -> float:
         """The joint's signed speed: the reading's (one rule, docs/library.md), or while it has no
         sign yet (the first reading of a turning motor) the direction between the last readings."""
         assert self.state is not None
         return self.state.speed if self.state.speed_signed else self.sign * abs(self.state.speed)
-    reads: int = 0
-    failures: int = 0
-    error: str = ""
 
 
 @dataclass
