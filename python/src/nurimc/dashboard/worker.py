@@ -30,7 +30,7 @@ from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
-from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
+from .procedures import Reading, emergency_stop, gains_at_start, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
 
@@ -441,6 +441,7 @@ class BusWorker:
                 f"(the motor is at {start:.2f} deg in the device's frame); use a smaller step, "
                 "move back, or set zero here first"
             )
+        gains = self.bus.run(gains_at_start(motor.procedures))  # the run's label: what the motor has
         self._wrote_eeprom(step.id, " (control on)")
 
         def progress(event: object) -> None:  # each reading as it comes: the plots, and the stop's chance
@@ -462,6 +463,7 @@ class BusWorker:
             "overshoot": figures.overshoot,
             "settled": figures.settled,
             "final_error": figures.final_error,
+            "gains": gains,
         }
 
     def _backup(self, ids: tuple[int, ...]) -> dict[str, Any]:
