@@ -264,10 +264,13 @@ function showStopBanner() {
 
 // ---- status bar -----------------------------------------------------------------------------
 let previousStats = null;
-/** The server's bus counters; frames per second from the change since the last tick (requests + answers). */
+/** The bus's counters. Frames per second as the bus measured them on its own clock (the
+ * server's frames_per_second); a bus without that figure (the direct mode's, read here at
+ * once) from the change since the last reading. Never from when figures reach the page. */
 function takeBusStats(stats) {
   const at = performance.now();
-  if (previousStats && at > previousStats.at) {
+  if ("frames_per_second" in stats) dashboard.framesPerSecond = stats.frames_per_second;
+  else if (previousStats && at > previousStats.at) {
     const frames = stats.requests + (stats.answers ?? 0) - (previousStats.requests + (previousStats.answers ?? 0));
     dashboard.framesPerSecond = Math.max(0, (frames * 1000) / (at - previousStats.at));
   }
