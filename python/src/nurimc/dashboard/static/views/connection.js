@@ -189,13 +189,16 @@ async function startDirect() {
 // ---- emergency stop -------------------------------------------------------------------------
 async function emergencyStop() {
   dashboard.stops += 1; // ends a running sequence at once, whatever the server answers
-  emit("estop-pressed");
   const button = $("#estop");
   if (!dashboard.link || !dashboard.connected) {
+    emit("estop-pressed");
     button.dataset.lastResult = "unreachable";
     estopAlarm(dashboard.mode === "direct" ? "estop.notSentDirect" : "estop.notSent");
     return;
   }
+  // the stop goes out first, before anything else the press sets off (the sequence's stop, banners)
+  const sent = dashboard.link.request("estop");
+  emit("estop-pressed");
   button.dataset.lastResult = "sending";
   const stop = dashboard.stops;
   clearTimeout(dashboard.estopTimer);
@@ -205,7 +208,7 @@ async function emergencyStop() {
     estopAlarm("estop.notConfirmed", { s: ESTOP_RECEIPT_MS / 1000 });
   }, ESTOP_RECEIPT_MS);
   try {
-    await dashboard.link.request("estop");
+    await sent;
   } catch (error) {
     if (/^stop pending/i.test(error.message)) {
       // the port is lost: the server latched the stop and sends it first when the port returns

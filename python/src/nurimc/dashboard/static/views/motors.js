@@ -433,11 +433,12 @@ function refreshCard(motor, at) {
 let lastCardRefresh = 0;
 function redraw() {
   const at = now();
-  const refresh = at - lastCardRefresh > 0.1;
+  const shown = !document.hidden && !$("#view-motors").classList.contains("hidden");
+  const refresh = shown && at - lastCardRefresh > 0.1;
   if (refresh) lastCardRefresh = at;
   for (const motor of dashboard.motors.values()) {
     if (refresh || motor.dirty) refreshCard(motor, at);
-    if (!motor.dirty || motor.paused) continue;
+    if (!motor.dirty || motor.paused || !shown) continue; // a hidden card's plot is drawn when it shows
     motor.dirty = false;
     const s = motor.series;
     if (!s.t.length) continue;
