@@ -19,6 +19,7 @@ from .client.core import BusCore
 from .errors import InputError, NoAnswer, NotArrived, SettingNotApplied, ValueOutOfRange
 from .multiturn import WRAP_DEGREES, TurnTracker, signed_degrees
 from .protocol import (
+    BROADCAST_ID,
     PRODUCTS,
     AccelSpeed,
     Command,
@@ -359,7 +360,9 @@ class MotorProcedures:
             speed = units.from_wire(f["speed"], 0.1)  # a magnitude: its sign is the trend's
         if sign is not None and not signed:
             speed, signed = speed * sign, True
-        step = self.tracker.step(device, speed * 6.0, at, signed=signed)
+        sent = self.core.commands_sent
+        told = sent.get(self.id, 0) + sent.get(BROADCAST_ID, 0)
+        step = self.tracker.step(device, speed * 6.0, at, signed=signed, commands=told)
         if not signed and self.tracker.sign < 0:
             speed = -speed
         known = signed or step.speed is not None or abs(speed) < STOPPED_RPM

@@ -7,19 +7,23 @@ chooses k from what the motor can have done in the time between them:
 
 - each reading carries the speed (signed from speed feedback's direction byte; position
   feedback carries only its magnitude, and its sign is taken from the position trend);
-- from the speeds at both ends, the time between the readings, a bound on the acceleration
+- from the speeds at both ends, the time between the readings and a bound on the acceleration
   (`max_accel`) and on the speed (`max_speed`), the tracker works out the least and the most
   the shaft can have turned, widened by what the timestamps and the wire's steps can be off
   (`timing`, 0.1 RPM, 0.01 deg);
+- a motor seen at rest twice with no command sent to it since (the caller passes the count of
+  commands sent to its ID: the bus is single-master, every frame goes through it) is still at
+  rest, however long the gap: its step is the few counts of the shortest way;
 - exactly one k inside that range: the step is known. None or several: the step is a guess
   (the one nearest the average speed times the time), and the position is marked
   **uncertain** from then on, until `reset()` (the continuous position is off by an unknown
   number of 655.36 deg turns; the device position itself stays right).
 
 Without a time or a speed (old callers), the step is the shortest way round, as before. At
-the defaults (100,000 deg/s^2, 36,000 deg/s) a motor read at least every 0.1 s is tracked at
-any speed up to the rated 3,000 RPM; longer gaps are marked uncertain unless the speeds
-decide (docs/library.md, Multi-turn position).
+the defaults (100,000 deg/s^2, 36,000 deg/s) a turning motor read at least every 0.1 s is
+tracked at any speed up to the rated 3,000 RPM; longer gaps are marked uncertain (what the
+motor did in them cannot be told from the readings: docs/library.md, Sign and multi-turn
+tracking), except for a motor at rest with no command sent.
 """
 
 from __future__ import annotations
@@ -67,7 +71,7 @@ def travel_range(a: float, b: float, dt: float, accel: float, top: float) -> tup
 
 
 @dataclass(frozen=True, slots=True)
-class Step:
+class TurnStep:
     """What one reading did to the tracker."""
 
     position: float  # continuous degrees
@@ -98,29 +102,47 @@ class TurnTracker:
         self.uncertain = False  # sticky until reset(): a step was a guess
         self.guesses = 0  # how many steps were guesses since reset()
         self.sign = 0  # the speed's sign as last known: +1 CCW, -1 CW, 0 unknown
+        self._commands: int | None = None  # commands sent to the motor as of the last reading
+        self._resting = False  # the last two readings at rest, no command between them
+        self._still = False  # the last reading at rest
 
     def knows_sign(self) -> bool:
         """Whether the last reading's speed sign is known (or it was at rest)."""
         return len(self._speeds) == 1
 
     def update(
-        self, device_degrees: float, speed: float | None = None, at: float | None = None, signed: bool = False
+        self,
+        device_degrees: float,
+        speed: float | None = None,
+        at: float | None = None,
+        signed: bool = False,
+        commands: int | None = None,
     ) -> float:
         """The continuous position after a reading (see `step` for the arguments)."""
-        return self.step(device_degrees, speed, at, signed).position
+        return self.step(device_degrees, speed, at, signed, commands).position
 
     def step(
-        self, device_degrees: float, speed: float | None = None, at: float | None = None, signed: bool = False
-    ) -> Step:
+        self,
+        device_degrees: float,
+        speed: float | None = None,
+        at: float | None = None,
+        signed: bool = False,
+        commands: int | None = None,
+    ) -> TurnStep:
         """Take a reading: the device's signed position (deg), its speed (deg/s; a magnitude
-        unless `signed`) and when it was read (s, any monotonic clock)."""
+        unless `signed`), when it was read (s, any monotonic clock) and how many commands had
+        been sent to the motor by then (None: not known)."""
         speeds = _options(speed, signed)
+        still = speed is not None and abs(speed) < STILL
+        quiet = commands is not None and commands == self._commands
         if self._last is None:
             self.position = device_degrees
             known = None
         else:
             shortest = (device_degrees - self._last + WRAP_DEGREES / 2) % WRAP_DEGREES - WRAP_DEGREES / 2
-            if speed is None or at is None or self._at is None or not self._speeds:
+            untimed = speed is None or at is None or self._at is None or not self._speeds
+            rested = self._resting and quiet and still  # at rest, nothing told it to move: it did not
+            if untimed or rested:
                 delta, known = shortest, None
             else:
                 delta, known, sure = self._choose(shortest, speeds, at - self._at)
@@ -135,32 +157,31 @@ class TurnTracker:
                 speeds = tuple(s for s in speeds if math.copysign(1.0, s) == trend) or speeds
         self._last, self._at = device_degrees, at
         self._speeds = speeds
+        self._resting = still and self._still and quiet
+        self._still, self._commands = still, commands
         self.position = round(self.position, 6)
         if len(speeds) == 1 and abs(speeds[0]) >= STILL:
             self.sign = 1 if speeds[0] > 0 else -1
         elif len(speeds) == 1:
             self.sign = 0
-        return Step(self.position, self.uncertain, speeds[0] if len(speeds) == 1 else None)
+        return TurnStep(self.position, self.uncertain, speeds[0] if len(speeds) == 1 else None)
 
     def _choose(self, shortest: float, speeds: tuple[float, ...], dt: float) -> tuple[float, float | None, bool]:
         """(step, this reading's signed speed if decided, whether the step is certain)."""
         if dt <= 0:
             return shortest, None, abs(shortest) < WRAP_DEGREES / 4
         ranges: list[tuple[float, float, float, float]] = []  # lo, hi, end speed, estimate
-        for strict in (True, False):
-            for a in self._speeds:
-                for b in speeds:
-                    span = (
-                        travel_range(a, b, dt, self.max_accel, self.max_speed)
-                        if strict
-                        else (min(a, b) * dt, max(a, b) * dt)  # the bound was wrong: speed between the ends
-                    )
-                    if span is None:
-                        continue
-                    margin = self.timing * max(abs(a), abs(b)) + SPEED_STEP * dt + POSITION_STEP
-                    ranges.append((span[0] - margin, span[1] + margin, b, (a + b) / 2 * dt))
-            if ranges:
-                break
+        for a in self._speeds:
+            for b in speeds:
+                span = travel_range(a, b, dt, self.max_accel, self.max_speed)
+                if span is None:
+                    continue
+                margin = self.timing * max(abs(a), abs(b)) + SPEED_STEP * dt + POSITION_STEP
+                ranges.append((span[0] - margin, span[1] + margin, b, (a + b) / 2 * dt))
+        if not ranges:  # the speeds changed faster than max_accel allows: the bound is wrong, guess
+            a, b = self._speeds[0], speeds[0]
+            k = round(((a + b) / 2 * dt - shortest) / WRAP_DEGREES)
+            return shortest + k * WRAP_DEGREES, None, False
         found: dict[int, set[float]] = {}
         for lo, hi, b, _ in ranges:
             for k in range(math.ceil((lo - shortest) / WRAP_DEGREES), math.floor((hi - shortest) / WRAP_DEGREES) + 1):

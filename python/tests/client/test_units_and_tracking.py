@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nurimc.multiturn import TurnTracker
 from nurimc.protocol import FieldRangeError, units
@@ -96,3 +98,63 @@ def test_travel_range_bounds_what_a_shaft_can_do() -> None:
     assert travel_range(0.0, 1000.0, 0.1, 1000.0, 10_000.0) is None  # needs 10,000 deg/s^2
     lo, hi = travel_range(0.0, 0.0, 1.0, 1000.0, 100.0)  # type: ignore[misc]
     assert hi == pytest.approx(90.0) and lo == pytest.approx(-90.0)  # capped at the top speed
+
+
+def test_a_motor_at_rest_with_no_command_across_a_long_gap_has_not_moved() -> None:
+    tracker = TurnTracker()
+    tracker.step(100.0, 0.0, 0.0, commands=3)
+    tracker.step(100.0, 0.0, 0.02, commands=3)  # at rest twice: it stays so until told otherwise
+    step = tracker.step(100.01, 0.0, 5.0, commands=3)  # polling paused 5 s (a settings write, a read-back)
+    assert step.position == 100.01 and not step.uncertain
+    # a command went out in the gap: the motor may have turned any number of times and stopped
+    assert tracker.step(100.0, 0.0, 10.0, commands=4).uncertain
+
+
+def test_a_motor_seen_at_rest_once_may_have_been_starting_a_move() -> None:
+    """At rest once (a move just sent, not begun), then a long gap: not taken for "stayed put"."""
+    tracker = TurnTracker()
+    tracker.step(0.0, 0.0, 0.0, commands=1)
+    assert tracker.step(64.64, 0.0, 2.0, commands=1).uncertain  # 720 deg later, or 64.64, or ...
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    speeds=st.lists(st.floats(-18_000.0, 18_000.0), min_size=2, max_size=6),
+    gaps=st.lists(st.floats(0.001, 0.6), min_size=5, max_size=40),
+    start=st.floats(-2000.0, 2000.0),
+    signed=st.booleans(),
+)
+def test_unwrapping_is_true_or_marked_uncertain(
+    speeds: list[float], gaps: list[float], start: float, signed: bool
+) -> None:
+    """A shaft whose speed ramps (at most 50,000 deg/s^2) between random targets up to the rated
+    3,000 RPM, read at random gaps as the device reports it: the continuous position is the
+    shaft's, or marked uncertain. Never silently wrong."""
+    wrap = 655.36
+    accel, dt = 50_000.0, 0.0005
+    tracker = TurnTracker()
+    angle, speed, t, target_index, read_at = start, 0.0, 0.0, 0, 0.0
+    gap_index = 0
+
+    def device(a: float) -> float:
+        magnitude = round(abs(a), 2) % wrap
+        return -magnitude if a < 0 else magnitude
+
+    def speed_reading(v: float) -> float:
+        return round(v / 0.6) * 0.6 if signed else round(abs(v) / 0.6) * 0.6
+
+    tracker.step(device(angle), speed_reading(speed), t, signed=signed)
+    offset = angle - device(angle)  # the count starts at the first reading (whole turns before it are unknown)
+    while gap_index < len(gaps):
+        goal = speeds[target_index % len(speeds)]
+        change = max(-accel * dt, min(accel * dt, goal - speed))
+        speed += change
+        angle += speed * dt
+        t += dt
+        if abs(goal - speed) < 1e-9:
+            target_index += 1
+        if t - read_at >= gaps[gap_index]:
+            read_at = t
+            gap_index += 1
+            step = tracker.step(device(angle), speed_reading(speed), t, signed=signed)
+            assert step.uncertain or abs(step.position + offset - angle) < 0.05, (step, angle)
