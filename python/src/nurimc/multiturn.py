@@ -140,12 +140,12 @@ class TurnTracker:
             known = None
         else:
             shortest = (device_degrees - self._last + WRAP_DEGREES / 2) % WRAP_DEGREES - WRAP_DEGREES / 2
-            untimed = speed is None or at is None or self._at is None or not self._speeds
+            gap = None if speed is None or at is None or self._at is None or not self._speeds else at - self._at
             rested = self._resting and quiet and still  # at rest, nothing told it to move: it did not
-            if untimed or rested:
+            if gap is None or rested:
                 delta, known = shortest, None
             else:
-                delta, known, sure = self._choose(shortest, speeds, at - self._at)
+                delta, known, sure = self._choose(shortest, speeds, gap)
                 if not sure:
                     self.uncertain = True
                     self.guesses += 1
