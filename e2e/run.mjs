@@ -463,7 +463,7 @@ test("the main plot draws every motor's series while three motors move (pixels c
       await page.evaluate((id) => window.dashboard.link.request("run", { id, rpm: 20 + 10 * id, ramp: 0.1 }), id);
     await page.click("nav button[data-view=plot]");
     await page.waitForFunction(() => window.dashboard.overlay.plot?.data[0].length > 100);
-    const colours = ["#2457c5", "#d97706", "#059669"]; // the three position series
+    const colours = ["#2f6fdf", "#e07b00", "#0f9d58"]; // the three position series: a colour per motor (core/plotstyle.js)
     await page.mouse.move(5, 5); // the cursor away from the plot: the legend shows the latest values
     const legend = await page
       .locator("#main-plot .u-legend .u-series")

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from .client.actions import Note, Now, Procedure
 from .client.core import BusCore
 from .client.timing import MAX_RESPONSE_TIME
-from .errors import CorruptedAnswer, NoAnswer, RateRefused, UnexpectedAnswer
+from .errors import CorruptedAnswer, FixedRate, NoAnswer, RateRefused, UnexpectedAnswer
 from .products import detect_line
 from .protocol import BAUD_RATES, Firmware, RequestFirmware, RequestPing
 from .protocol.host import DISCOVERY_RATE_ORDER
@@ -52,6 +52,14 @@ class Progress:
     rates_total: int
     walking_id: int | None  # the ID being pinged while walking, else None
     found: tuple[Found, ...] = field(default=())
+
+
+@dataclass(frozen=True, slots=True)
+class FixedLink:
+    """The link runs at one rate (a TCP gateway): the search is made once, at `rate` (note)."""
+
+    rate: int
+    reason: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,18 +127,33 @@ def discover(
     lines: bool = True,
 ) -> Procedure[list[Found]]:
     """Find controllers. Progress is reported as Note(Progress(...)) (and Note(RateSkipped(...))
-    for a rate the port refuses). Leaves the bus at its old rate."""
+    for a rate the port refuses). On a link at one rate (a `socket://` gateway: FixedRate) the
+    search is made once, at the link's rate, said by Note(FixedLink(...)): every controller is
+    reported once, at the rate that is real. Leaves the bus at its old rate."""
     rate_list = [r for r in RATE_ORDER if r in set(rates or BAUD_RATES)]
     id_list = list(range(255) if ids is None else ids)
     original = core.baudrate
     found: list[Found] = []
+    fixed: int | None = None  # a link at one rate (FixedRate): searched once, at that rate
     try:
-        for index, rate in enumerate(rate_list):
+        position = 0
+        while position < len(rate_list):
+            rate, index = rate_list[position], position
             try:
                 yield from core.set_baud(rate)
+            except FixedRate as link:
+                if fixed is not None:  # cannot happen: the plan holds only the link's rate by now
+                    raise
+                fixed = link.rate  # said once; what is left of the plan is the link's rate alone
+                yield Note(FixedLink(link.rate, str(link)))
+                done = rate_list[:position]
+                rate_list = done + ([] if link.rate in done else [link.rate])
+                continue
             except RateRefused as refused:
                 yield Note(RateSkipped(rate, str(refused)))
+                position += 1
                 continue
+            position += 1
             yield Note(Progress(rate, index, len(rate_list), None, tuple(found)))
             garbled, heard, span = True, set[int](), None
             if broadcast and ids is None:

@@ -67,6 +67,15 @@ class RateRefused(PortError):
     is never changed to one (docs/library.md)."""
 
 
+class FixedRate(RateRefused):
+    """The link runs at one rate whatever the host asks (a `socket://` TCP gateway: its serial
+    rate is set on the gateway). Discovery searches once, at `rate` (docs/library.md)."""
+
+    def __init__(self, message: str, rate: int) -> None:
+        super().__init__(message)
+        self.rate = rate
+
+
 NO_ANSWER_CAUSES = (
     "the controller is at another baud rate (try `nurimc scan`)",
     "no controller has this ID",

@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from typing import Protocol
 
-from .client.actions import Procedure
+from .client.actions import Now, Procedure
 from .client.core import BusCore
 from .errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
 from .motor import (
@@ -81,14 +81,18 @@ def read_states_broadcast(motors: Sequence[MotorProcedures], slot: int) -> Proce
     window = broadcast_window(core, len(motors), slot)
     answers, _ = yield from core.broadcast_ask(RequestPosition, window, ids=ids, ordered=True)
     got = {a.id: a for a in answers}
+    # one time for the whole broadcast: each motor keeps its place in it, so the time between
+    # its readings (what the multi-turn tracking needs) is right
+    at: float = yield Now()
     out: dict[int, MotorState | Exception] = {}
     for motor in motors:
         if motor.id in got:
-            out[motor.id] = motor.state_from(got[motor.id])
+            out[motor.id] = motor.state_from(got[motor.id], at)
             continue
         try:  # asked on its own, behind a fence: its late answer to the broadcast cannot be taken
             answer = yield from core.ask(RequestPosition(motor.id))
-            out[motor.id] = motor.state_from(answer)
+            alone: float = yield Now()
+            out[motor.id] = motor.state_from(answer, alone)
         except (NoAnswer, UnexpectedAnswer) as err:
             out[motor.id] = err
     return out

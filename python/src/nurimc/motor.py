@@ -19,6 +19,7 @@ from .client.core import BusCore
 from .errors import InputError, NoAnswer, NotArrived, SettingNotApplied, ValueOutOfRange
 from .multiturn import WRAP_DEGREES, TurnTracker, signed_degrees
 from .protocol import (
+    BROADCAST_ID,
     PRODUCTS,
     AccelSpeed,
     Command,
@@ -79,9 +80,15 @@ class MotorState:
     id: int
     position: float  # degrees, continuous (host-side multi-turn tracking)
     device_position: float  # degrees, signed, as reported (-655.35..655.35)
-    speed: float  # RPM; magnitude from position feedback, signed from read_speed()
+    speed: float  # RPM, signed (CCW +): speed feedback's direction byte, else the position trend
     current: float  # amperes
     direction: str  # "ccw" or "cw": the sign of device_position
+    #: False while position feedback's unsigned speed has no trend yet (the first reading of a
+    #: turning motor): `speed` is then the magnitude; read_speed() gives the sign in one request
+    speed_signed: bool = True
+    #: the continuous position may be off by whole 655.36 deg turns (a gap too long for the
+    #: speed to decide; docs/library.md, Multi-turn position); stays set until tracker.reset()
+    position_uncertain: bool = False
 
 
 def _direction(value: float) -> int:
@@ -276,7 +283,7 @@ class MotorProcedures:
         while True:
             state = yield from self.read_state()
             there = self._target is None or _distance(state.device_position, self._target) <= tolerance
-            at_rest = at_rest + 1 if there and state.speed < STOPPED_RPM else 0
+            at_rest = at_rest + 1 if there and abs(state.speed) < STOPPED_RPM else 0
             if at_rest >= 2:
                 return state
             now: float = yield Now()
@@ -343,31 +350,45 @@ class MotorProcedures:
         yield from self.core.tell(self.make_move_to(state.device_position, rpm=HOLD_RPM))
 
     # -- feedback -------------------------------------------------------------
-    def state_from(self, answer: Message) -> MotorState:
+    def state_from(self, answer: Message, at: float | None = None, sign: int | None = None) -> MotorState:
         """A MotorState from a position feedback answer (also used by group reads), or, on a
-        line without one (SM), from a speed feedback answer: position in its 0.1 deg, speed signed."""
+        line without one (SM), from a speed feedback answer: position in its 0.1 deg, speed signed.
+        `at`: when it was read (the bus clock), for the multi-turn tracking (nurimc.multiturn);
+        `sign`: the speed's sign when known otherwise (speed feedback read just after)."""
         f = answer.fields()
-        if answer.name == "speed_feedback":
+        signed = answer.name == "speed_feedback"
+        if signed:
             device = signed_degrees(f["direction"], units.from_wire(f["position"], 0.1))
             speed = signed_degrees(f["direction"], units.from_wire(f["speed"], 0.1))
         else:
             assert answer.name == "position_feedback", answer
             device = signed_degrees(f["direction"], units.from_wire(f["position"], 0.01))
-            speed = units.from_wire(f["speed"], 0.1)
+            speed = units.from_wire(f["speed"], 0.1)  # a magnitude: its sign is the trend's
+        if sign is not None and not signed:
+            speed, signed = speed * sign, True
+        sent = self.core.commands_sent
+        told = sent.get(self.id, 0) + sent.get(BROADCAST_ID, 0)
+        step = self.tracker.step(device, speed * 6.0, at, signed=signed, commands=told)
+        if not signed and self.tracker.sign < 0:
+            speed = -speed
+        known = signed or step.speed is not None or abs(speed) < STOPPED_RPM
         return MotorState(
             id=self.id,
-            position=self.tracker.update(device),
+            position=step.position,
             device_position=device,
             speed=speed,
             current=units.from_wire(f["current"], 0.1),
             direction="cw" if f["direction"] == 1 else "ccw",
+            speed_signed=known,
+            position_uncertain=step.uncertain,
         )
 
     def read_state(self) -> Procedure[MotorState]:
         """Position feedback (§19); a speed-only line (SM) has none and reads its speed feedback."""
         name = "request_position" if self.line.has("request_position") else "request_speed"
         answer = yield from self.core.ask(self._request(name, "a reading"))
-        return self.state_from(answer)
+        at: float = yield Now()
+        return self.state_from(answer, at)
 
     def read_speed(self) -> Procedure[float]:
         """Signed speed in RPM (CCW +) from speed feedback (§20)."""

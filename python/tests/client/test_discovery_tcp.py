@@ -18,7 +18,8 @@ from collections.abc import Iterator
 import pytest
 
 from nurimc import Bus
-from nurimc.discovery import Found, discover
+from nurimc.discovery import FixedLink, Found, Progress, RateSkipped, discover
+from nurimc.errors import FixedRate
 from nurimc.protocol import RequestFirmware
 from nurimc.sim import SimBus
 from nurimc.sim.faultproxy import FaultProxy
@@ -132,5 +133,36 @@ def test_a_socket_port_sends_each_write_at_once() -> None:
         try:
             sock = bus.transport.port._socket  # type: ignore[attr-defined]
             assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+        finally:
+            bus.close()
+
+
+def test_a_search_over_a_tcp_gateway_is_made_once_at_its_rate() -> None:
+    """The issue's case: the 18-rate search over socket:// "found" every motor at every rate.
+    The link runs at the gateway's rate: one search there, each motor once, said in a note."""
+    with tcp_sim([1, 2, 3]) as (host, port):
+        bus = Bus.open(f"socket://{host}:{port}", RATE)
+        notes: list[object] = []
+        try:
+            found = bus.run(discover(bus.core, lines=False), on_note=notes.append)
+            assert bus.baudrate == RATE
+        finally:
+            bus.close()
+    assert [(f.id, f.baudrate) for f in found] == [(1, RATE), (2, RATE), (3, RATE)]
+    links = [n for n in notes if isinstance(n, FixedLink)]
+    assert len(links) == 1 and links[0].rate == RATE and "TCP gateway" in links[0].reason
+    assert not [n for n in notes if isinstance(n, RateSkipped)]  # not 17 notes: one
+    searched = {n.rate for n in notes if isinstance(n, Progress)}
+    assert searched == {RATE}
+
+
+def test_a_tcp_gateway_refuses_another_rate_and_keeps_its_own() -> None:
+    with tcp_sim([1]) as (host, port):
+        bus = Bus.open(f"socket://{host}:{port}", RATE)
+        try:
+            with pytest.raises(FixedRate, match="set on the gateway"):
+                bus.baudrate = 9600
+            assert bus.baudrate == RATE
+            assert bus.request(RequestFirmware(1)).id == 1  # still talking at its rate
         finally:
             bus.close()

@@ -99,7 +99,7 @@ def test_a_read_is_fresh_or_a_typed_error(config: FaultConfig, seed: int, retrie
                 wire = (
                     device_id,
                     round(abs(state.device_position) * 100),
-                    round(state.speed * 10),
+                    round(abs(state.speed) * 10),  # the wire carries the magnitude; the sign is the trend
                     round(state.current * 10),
                 )
                 if wire not in sent:

@@ -19,9 +19,13 @@ from nurimc.ros2.names import NameError_, dds_topic, joint_names, namespace, top
 approx = cast(Callable[[float], float], pytest.approx)
 
 
-def state(device_id: int, position: float, device: float | None = None, speed: float = 0.0) -> MotorState:
+def state(
+    device_id: int, position: float, device: float | None = None, speed: float = 0.0, signed: bool = False
+) -> MotorState:
+    """A reading; by default one whose speed the library could not sign yet (position feedback's
+    magnitude, no trend): the bridge signs it by the direction between its readings."""
     device = position if device is None else device
-    return MotorState(device_id, position, device, speed, 0.4, "cw" if device < 0 else "ccw")
+    return MotorState(device_id, position, device, speed, 0.4, "cw" if device < 0 else "ccw", speed_signed=signed)
 
 
 def bridge(**options: Any) -> Bridge:
@@ -120,6 +124,18 @@ def test_joint_state_has_fresh_readings_only_and_ros_units() -> None:
     message = b.joint_state(0)
     assert message is not None and message.name == ["a", "b"]
     assert message.velocity[0] == pytest.approx(-2 * math.pi)
+
+
+def test_a_signed_speed_is_published_as_read() -> None:
+    """The library's signed speed (speed feedback's direction byte or the position trend) is
+    what joint_states shows, with no second sign applied (-45 RPM is -45 RPM)."""
+    b = Bridge([1], ["a"])
+    b.readings({1: state(1, 10.0, speed=-45.0, signed=True)})
+    message = b.joint_state(0)
+    assert message is not None and message.velocity == [pytest.approx(-45 * 2 * math.pi / 60)]
+    b.readings({1: state(1, 20.0, speed=-45.0, signed=True)})  # the position went up: no matter, the reading is signed
+    message = b.joint_state(0)
+    assert message is not None and message.velocity == [pytest.approx(-45 * 2 * math.pi / 60)]
 
 
 def test_no_joint_state_when_none_answered() -> None:

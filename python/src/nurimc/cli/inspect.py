@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import sys
 import time
@@ -15,8 +16,8 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from ..client.sync import Bus
+from ..discovery import FixedLink, RateSkipped, discover
 from ..discovery import Progress as ScanProgress
-from ..discovery import RateSkipped, discover
 from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
 from ..journal import RestoreJournal, incomplete_message
@@ -87,6 +88,13 @@ def scan(
                 so_far[:] = event.found
                 where = f"{event.rate} bps" + (f", ID {event.walking_id}" if event.walking_id is not None else "")
                 bar.update(task, completed=event.rate_index, description=tr(f"{where}: {len(event.found)} found"))
+            elif isinstance(event, FixedLink):  # a TCP gateway: one rate, one search, said once
+                url = bus.transport.url
+                tell_note(
+                    f"{url} is a TCP gateway at one rate ({event.rate} bps, set on the gateway): "
+                    f"searching once, at {event.rate} bps"
+                )
+                bar.update(task, total=1)
             elif isinstance(event, RateSkipped):  # the adapter cannot do this rate: say so once, go on
                 tell_note(f"{event.reason}; {event.rate} bps skipped")
 
@@ -204,6 +212,8 @@ def status(ctx: typer.Context) -> None:
     with open_bus(o) as bus:
         motor = motor_for(bus, o, device_id, acts=False)
         state = motor.read_state()
+        if not state.speed_signed:  # one reading has no trend: speed feedback's direction byte signs it
+            state = dataclasses.replace(state, speed=motor.read_speed(), speed_signed=True)
         settings = motor.read_settings()
     unfinished = RestoreJournal(o.port or os.environ.get("NURIMC_PORT", "")).pending(device_id)
     if unfinished is not None:  # the settings below are part old, part restored (docs/cli.md)

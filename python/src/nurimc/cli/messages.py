@@ -35,6 +35,8 @@ PATTERNS: tuple[str, ...] = (
     "{value} (0.1° steps, from speed feedback)",
     "{value} (signed, CCW +)",
     "{reason}; {rate} bps skipped",
+    "{url} is a TCP gateway at one rate ({rate} bps, set on the gateway): searching once, at {rate2} bps",
+    "{url} is a TCP gateway: its serial rate ({rate} bps) is set on the gateway, not from here, so {rate2} bps cannot be used",
     "the adapter at {url} cannot be set to {rate} bps ({reason}); ID {id} was not changed (at {rate2} bps it would be out of reach)",
     "the adapter at {url} cannot be set to {rate} bps ({reason})",
     "{url}: cannot set {rate} bps: {reason}",

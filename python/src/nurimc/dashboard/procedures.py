@@ -15,9 +15,10 @@ from typing import Any
 from ..client.actions import Note, Now, Procedure, Receive, Wait
 from ..client.core import BusCore
 from ..motor import MotorProcedures, MotorState
-from ..protocol import ResetPosition
+from ..protocol import Request, ResetPosition
 from ..protocol.host import STOP_VERIFY
 from ..service.stop import emergency_stop as the_stop
+from ..settings import setting
 
 ZERO_WAIT = 0.5  # s the new zero may take to show in the readings
 ZERO_RECHECK = 0.02
@@ -79,3 +80,13 @@ def step_run(motor: MotorProcedures, target: float, rpm: float | None, duration:
         readings.append(reading)
         yield Note(reading)
     return readings
+
+
+def gains_at_start(motor: MotorProcedures) -> Procedure[dict[str, int]]:
+    """The position gains the motor has now, read from it (one request): a step run is labelled
+    with these, never with what is typed in the page's fields (which may not have been written)."""
+    request = motor.line.make(setting("position-kp").request, motor.id)
+    assert isinstance(request, Request)
+    answer = yield from motor.core.ask(request)
+    fields = answer.fields()
+    return {"kp": fields["kp"], "ki": fields["ki"], "kd": fields["kd"]}

@@ -24,7 +24,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from .. import __version__
 from ..client.sync import Bus
 from . import commands as c
-from .busstats import bus_stats
+from .busstats import FrameRate, bus_stats
 from .frames import FrameTap
 from .security import TOKEN_COOKIE, SecurityPolicy
 from .worker import BusWorker
@@ -219,11 +219,12 @@ def create_app(config: DashboardConfig) -> Starlette:
 
     async def flush() -> None:
         next_tick = 0.0
+        frame_rate = FrameRate()  # frames/s on the server's clock (dashboard/busstats.py)
         while True:
             await asyncio.sleep(FLUSH_SECONDS)
             if time.monotonic() >= next_tick:
                 next_tick = time.monotonic() + TICK_SECONDS
-                hub.broadcast({"type": "tick", "stats": bus_stats(worker().bus)})
+                hub.broadcast({"type": "tick", "stats": bus_stats(worker().bus, frame_rate)})
             samples = worker().take_samples()
             if samples:
                 hub.broadcast({"type": "samples", "rows": samples})

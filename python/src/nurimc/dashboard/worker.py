@@ -32,7 +32,7 @@ from ..service.backoff import Backoff
 from ..service.stop import Idle
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
-from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
+from .procedures import Reading, emergency_stop, gains_at_start, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
 
@@ -208,7 +208,12 @@ class BusWorker:
         for device_id in sorted(self.motors):
             try:
                 state = self._sample(device_id)
-                states[str(device_id)] = {"position": state.position, "speed": state.speed, "current": state.current}
+                states[str(device_id)] = {
+                    "position": state.position,
+                    "speed": state.speed,
+                    "current": state.current,
+                    "position_uncertain": state.position_uncertain,
+                }
             except PortLost:
                 return
             except NurimcError as error:
@@ -311,7 +316,9 @@ class BusWorker:
         device_id = state.id
         self.reads += 1
         t = round(time.monotonic() - self.clock_origin, 4)
+        # the 7th column: 1 when the continuous position may be off by whole turns (nurimc.multiturn)
         row = [device_id, t, state.position, state.speed, state.current, state.device_position]
+        row.append(1 if state.position_uncertain else 0)
         with self._samples_lock:
             self._samples.append(row)
 
@@ -451,6 +458,7 @@ class BusWorker:
                 f"(the motor is at {start:.2f} deg in the device's frame); use a smaller step, "
                 "move back, or set zero here first"
             )
+        gains = self.bus.run(gains_at_start(motor.procedures))  # the run's label: what the motor has
         self._wrote_eeprom(step.id, " (control on)")
 
         def progress(event: object) -> None:  # each reading as it comes: the plots, and the stop's chance
@@ -472,6 +480,7 @@ class BusWorker:
             "overshoot": figures.overshoot,
             "settled": figures.settled,
             "final_error": figures.final_error,
+            "gains": gains,
         }
 
     def _backup(self, ids: tuple[int, ...]) -> dict[str, Any]:

@@ -81,6 +81,12 @@ class Joint:
     failures: int = 0
     error: str = ""
 
+    def signed_rpm(self) -> float:
+        """The joint's signed speed: the reading's (one rule, docs/library.md), or while it has no
+        sign yet (the first reading of a turning motor) the direction between the last readings."""
+        assert self.state is not None
+        return self.state.speed if self.state.speed_signed else self.sign * abs(self.state.speed)
+
 
 @dataclass
 class Counters:
@@ -241,7 +247,7 @@ class Bridge:
             header=msgs.Header(stamp=msgs.Time.from_ns(stamp_ns)),
             name=[j.name for j in read],
             position=[deg_to_rad(j.state.position) for j in read if j.state],
-            velocity=[j.sign * rpm_to_rad_s(j.state.speed) for j in read if j.state],
+            velocity=[rpm_to_rad_s(j.signed_rpm()) for j in read if j.state],
             effort=[j.state.current for j in read if j.state],
         )
 
@@ -255,6 +261,8 @@ class Bridge:
                 level, message = msgs.DIAGNOSTIC_STALE, "not read yet"
             elif self.estop_latched:
                 level, message = msgs.DIAGNOSTIC_WARN, "released by estop (latched)"
+            elif joint.state.position_uncertain:  # nurimc.multiturn: whole turns may be missing
+                level, message = msgs.DIAGNOSTIC_WARN, "position uncertain: readings too far apart for the speed"
             else:
                 level, message = msgs.DIAGNOSTIC_OK, joint.mode
             values = {
@@ -265,7 +273,11 @@ class Bridge:
                 "failed_reads": joint.failures,
             }
             if joint.state is not None:
-                values |= {"position_rad": round(deg_to_rad(joint.state.position), 5), "current_a": joint.state.current}
+                values |= {
+                    "position_rad": round(deg_to_rad(joint.state.position), 5),
+                    "position_uncertain": joint.state.position_uncertain,
+                    "current_a": joint.state.current,
+                }
             statuses.append(
                 msgs.DiagnosticStatus(
                     level=level,

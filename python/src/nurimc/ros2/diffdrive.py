@@ -195,7 +195,7 @@ class DiffDrive:
 
     def _speed(self, joint: Joint, inverted: bool) -> float:
         assert joint.state is not None
-        return joint.sign * rpm_to_rad_s(joint.state.speed) * self.config.wheel_radius * (-1.0 if inverted else 1.0)
+        return rpm_to_rad_s(joint.signed_rpm()) * self.config.wheel_radius * (-1.0 if inverted else 1.0)
 
     def update_odometry(self) -> bool:
         """Integrate the latest readings of both wheels (False when either did not answer this round)."""

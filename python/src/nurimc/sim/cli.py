@@ -52,9 +52,10 @@ def sim(
     resolution: Annotated[
         int | None,
         typer.Option(
-            help="Encoder pulses per motor turn (MC; default 1024, 4 counts each: 0.088° steps) or hall "
-            "poles (BLMC-H; default 8). The document's factory value, 4, gives 22.5° steps. "
-            "A controller restored from --state keeps its own unless it holds the factory 4."
+            help="Encoder pulses per motor turn (MC, and RSA/RSAVW/SA/SM, which have no resolution setting: "
+            "default 1024, 4 counts each: 0.088° steps) or hall poles (BLMC-H; default 8, 3 steps each). "
+            "The document's factory value, 4, gives 22.5° steps. "
+            "A controller restored from --state keeps its stored values."
         ),
     ] = None,
     profile: Annotated[
@@ -177,8 +178,7 @@ def build_bus(
         for i, rate, own in motor_list:
             bus.add_controller(i, rate, own or product)
         for controller in bus.controllers:
-            if controller.product in SIM_RESOLUTION:  # only MC and BLMC-H have a resolution setting
-                encoder_like(controller, controller.product, resolution)
+            encoder_like(controller, controller.product, resolution)
     except BaseException:
         bus.close()
         raise
@@ -186,19 +186,21 @@ def build_bus(
 
 
 #: `nurimc sim`'s resolution when none is given: what a real motor reports (an encoder of 1024
-#: pulses on an MC, 8 hall poles on a BLMC-H), not the document's factory 4 (22.5° steps).
-SIM_RESOLUTION = {"mc": 1024, "blmc-h": 8}
+#: pulses on an MC and on the lines without a resolution setting, 8 hall poles on a BLMC-H),
+#: not the document's factory 4 (22.5° steps).
+SIM_RESOLUTION = {"blmc-h": 8}
+ENCODER_RESOLUTION = 1024
 FACTORY_RESOLUTION = 4
 
 
 def encoder_like(controller: Any, product: str, resolution: int | None) -> None:
     """Give a controller the --resolution (or the encoder-like default) unless it was restored
-    from --state with a resolution of its own (anything but the factory 4)."""
+    from --state: a stored controller keeps every value as stored (a stored 4 stays 4)."""
     if resolution is not None and not 1 <= resolution <= 65533:
         raise OptionError(f"--resolution {resolution}: use 1..65533 (encoder pulses or hall poles)")
-    if resolution is None and controller.settings.resolution != FACTORY_RESOLUTION:
+    if getattr(controller, "restored", False):
         return
-    controller.settings.resolution = resolution or SIM_RESOLUTION[product]
+    controller.settings.resolution = resolution or SIM_RESOLUTION.get(product, ENCODER_RESOLUTION)
     controller.apply_settings()
 
 
@@ -232,6 +234,7 @@ def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, 
         bus.close()
         typer.echo(f"nurimc sim: cannot serve: {exc}", err=True)
         raise typer.Exit(1) from None
+    bus.say_lag = lambda text: typer.echo(f"warning: {text}", err=True)  # at most every 10 s (sim/core.py)
     timing = "wire timing on" if bus.wire_timing else "no wire timing"
     print(f"{len(bus.controllers)} controller(s), {timing}:")
     for line in describe(bus):
@@ -244,6 +247,8 @@ def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, 
     for s in servers:
         s.stop()
     bus.close()
+    if bus.fell_behind:
+        print(f"fell behind real time {bus.fell_behind} time(s), worst {bus.worst_lag * 1000:.0f} ms")
     print("stopped")
     sys.stdout.flush()
 

@@ -59,8 +59,10 @@ class Reply:
 
 
 def counts_per_motor_turn(product: str, resolution: int) -> int:
-    """Encoder edges (MC: pulses x 4, quadrature) or hall steps (BLMC-H: poles x 3) per motor turn."""
-    return resolution * 4 if product == "mc" else resolution * 3
+    """Hall steps per motor turn on a BLMC-H (poles x 3); encoder edges (pulses x 4, quadrature)
+    on an MC and on the lines with no resolution setting (RSA, RSAVW, SA, SM: actuators with an
+    encoder; the simulator's --resolution sets their pulses, docs/simulator.md)."""
+    return resolution * 3 if product == "blmc-h" else resolution * 4
 
 
 def _signed(direction: int, magnitude: float) -> float:
@@ -103,6 +105,7 @@ class SimController:
         self._on_settings_changed = on_settings_changed
         self.frames_received = 0
         self.frames_ignored_busy = 0
+        self.restored = False  # its settings came from a --state directory: kept as stored
         self.apply_settings()
         if settings.control:
             self.servo.release()

@@ -31,6 +31,8 @@ from .wire import Garbler, Transmission, byte_time, merge
 log = logging.getLogger("nurimc.sim")
 
 TICK = 0.02  # s between background physics updates (real clock only)
+LAG_SAY_EVERY = 10.0  # s: at most one "fell behind" warning this often (each one gives the count)
+FEEDBACK_BYTES = 10  # a feedback frame: "a frame time" is how long one takes on the wire
 
 
 class HostLink:
@@ -112,6 +114,12 @@ class WireModel:
         self.links: list[HostLink] = []
         self.airborne: list[Transmission] = []
         self.collisions = 0
+        #: times the physics ran more than a frame time behind real time (a busy host), and the worst lag, s
+        self.fell_behind = 0
+        self.worst_lag = 0.0
+        self._lag_said = -LAG_SAY_EVERY
+        #: where "fell behind" is said (`nurimc sim`: stderr); None: counted only, logged at debug
+        self.say_lag: Callable[[str], None] | None = None
         self.rejected: dict[int, int] = defaultdict(int)  # bytes per rate that were no frame
         # one per rate a controller listens at and product line spoken there (spec/lines.json)
         self._parsers: dict[tuple[int, str], ExplainingParser] = {}
@@ -161,6 +169,7 @@ class WireModel:
                 speed_zero=self.speed_zero or profile.speed_zero,
                 factory_defaults=profile.factory_defaults,
             )
+            controller.restored = record is not None and record.get("product") == product
             controller.advance_to(self.now())
             settings.on_address_change(self._forget_index)
             self.controllers.append(controller)
@@ -422,8 +431,36 @@ class WireModel:
         self._ticker.start()
 
     def _tick(self) -> None:
-        while not self._closing.wait(TICK):
+        due = self.now() + TICK
+        while not self._closing.wait(max(0.0, due - self.now())):
             self.advance()
+            now = self.now()
+            self.note_lag(now - due)
+            due = max(due + TICK, now)  # far behind: carry on from now rather than race to catch up
+
+    def frame_time(self) -> float:
+        """How long a feedback frame takes at the slowest rate a controller listens at, s."""
+        rates = [c.baud for c in self.controllers] or [max(BAUD_RATES)]
+        return FEEDBACK_BYTES * byte_time(min(rates))
+
+    def note_lag(self, lag: float) -> None:
+        """The physics caught up `lag` seconds after it was due: more than a frame time counts as
+        falling behind real time (answers and motion come late), said on stderr now and then."""
+        frame = self.frame_time()
+        if lag <= frame:
+            return
+        self.fell_behind += 1
+        self.worst_lag = max(self.worst_lag, lag)
+        now = self.now()
+        text = (
+            f"simulator fell behind real time by {lag * 1000:.0f} ms (more than a frame time, {frame * 1000:.1f} ms; "
+            f"{self.fell_behind} time(s) so far): the host is busy, so answers and motion come late; "
+            "give it a quieter host or fewer controllers"
+        )
+        log.debug("%s", text)
+        if self.say_lag is not None and now - self._lag_said >= LAG_SAY_EVERY:
+            self._lag_said = now
+            self.say_lag(text)
 
     def close(self) -> None:
         """Stop the background physics (servers are stopped with their own stop())."""

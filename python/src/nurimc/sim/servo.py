@@ -178,6 +178,8 @@ class Servo:
             feedforward = self._position_reference()
             g = self.position_gains
             error = self.ref - self.measured_angle()
+            if abs(error) <= lim.quantum / 2 + 1e-9:  # settle rule: within half a count of the reference
+                error = 0.0  # is there (a target between two counts would otherwise hunt between them)
             # PID on the error alone (no velocity feedforward): the gains shape the response
             speed_ref = g.kp * error + g.ki * self._pos_integral + g.kd * (feedforward - m.speed)
             if abs(speed_ref) < lim.max_speed:

@@ -15,7 +15,7 @@ from typing import Any, Literal, overload
 
 import serial
 
-from ..errors import NurimcError, PortError, RateRefused
+from ..errors import FixedRate, NurimcError, PortError, RateRefused
 from .backends import find_backend, known_schemes, scheme_of
 from .base import Transport
 from .latency import estimate_latency
@@ -68,6 +68,10 @@ def _port_error(url: str, err: Exception) -> PortError:
     return PortError(f"cannot use port {url}: {text}")
 
 
+#: schemes whose rate is the gateway's, whatever pyserial is told (rfc2217:// does change it)
+FIXED_RATE_SCHEMES = ("socket",)
+
+
 class SerialTransport:
     """Transport over a pyserial port. Reads on file-descriptor ports use select() directly,
     so a per-read timeout costs no termios reconfiguration."""
@@ -83,6 +87,8 @@ class SerialTransport:
         self.latency = estimated if latency is None else latency
         if self.warning:
             logging.getLogger("nurimc").warning(self.warning)
+        #: a link whose rate the host cannot change (a TCP gateway, socket://): its rate, else None
+        self.fixed_rate: int | None = int(port.baudrate) if scheme_of(url) in FIXED_RATE_SCHEMES else None
         self._fd: int | None = None
         try:
             self._fd = port.fileno()
@@ -99,6 +105,12 @@ class SerialTransport:
 
     @baudrate.setter
     def baudrate(self, rate: int) -> None:
+        if self.fixed_rate is not None and rate != self.fixed_rate:
+            raise FixedRate(
+                f"{self.url} is a TCP gateway: its serial rate ({self.fixed_rate} bps) is set on the gateway, "
+                f"not from here, so {rate} bps cannot be used",
+                self.fixed_rate,
+            )
         before = self.port.baudrate
         try:
             self.port.baudrate = rate

@@ -74,6 +74,9 @@ export default {
   "motors.stats": "{rate} readings/s · {errors} errors · last answer {age} ms ago",
   "motors.position": "position",
   "motors.positionTitle": "continuous: counts whole turns since the console started",
+  "plot.window": "window",
+  "motors.positionUncertain":
+    "uncertain: the readings were too far apart for the speed to tell how many whole turns passed; zero the motor to start again",
   "motors.device": "device",
   "motors.deviceTitle": "what the controller reports, within ±{device}°; moves are given in this frame (±{move}°)",
   "motors.speed": "speed",

@@ -74,6 +74,9 @@ export default {
   "motors.stats": "초당 {rate}회 읽음 · 오류 {errors}회 · 마지막 응답 {age} ms 전",
   "motors.position": "위치",
   "motors.positionTitle": "연속 위치: 콘솔이 시작된 뒤의 회전 수를 셉니다",
+  "plot.window": "시간 범위",
+  "motors.positionUncertain":
+    "불확실: 읽기 간격이 너무 길어 속도로는 몇 바퀴가 지났는지 알 수 없습니다. 위치 초기화로 다시 시작하세요",
   "motors.device": "장치",
   "motors.deviceTitle": "제어기가 보고하는 위치(±{device}° 이내); 이동 명령은 이 기준입니다 (±{move}°)",
   "motors.speed": "속도",

@@ -189,13 +189,16 @@ async function startDirect() {
 // ---- emergency stop -------------------------------------------------------------------------
 async function emergencyStop() {
   dashboard.stops += 1; // ends a running sequence at once, whatever the server answers
-  emit("estop-pressed");
   const button = $("#estop");
   if (!dashboard.link || !dashboard.connected) {
+    emit("estop-pressed");
     button.dataset.lastResult = "unreachable";
     estopAlarm(dashboard.mode === "direct" ? "estop.notSentDirect" : "estop.notSent");
     return;
   }
+  // the stop goes out first, before anything else the press sets off (the sequence's stop, banners)
+  const sent = dashboard.link.request("estop");
+  emit("estop-pressed");
   button.dataset.lastResult = "sending";
   const stop = dashboard.stops;
   clearTimeout(dashboard.estopTimer);
@@ -205,7 +208,7 @@ async function emergencyStop() {
     estopAlarm("estop.notConfirmed", { s: ESTOP_RECEIPT_MS / 1000 });
   }, ESTOP_RECEIPT_MS);
   try {
-    await dashboard.link.request("estop");
+    await sent;
   } catch (error) {
     if (/^stop pending/i.test(error.message)) {
       // the port is lost: the server latched the stop and sends it first when the port returns
@@ -264,10 +267,13 @@ function showStopBanner() {
 
 // ---- status bar -----------------------------------------------------------------------------
 let previousStats = null;
-/** The server's bus counters; frames per second from the change since the last tick (requests + answers). */
+/** The bus's counters. Frames per second as the bus measured them on its own clock (the
+ * server's frames_per_second); a bus without that figure (the direct mode's, read here at
+ * once) from the change since the last reading. Never from when figures reach the page. */
 function takeBusStats(stats) {
   const at = performance.now();
-  if (previousStats && at > previousStats.at) {
+  if ("frames_per_second" in stats) dashboard.framesPerSecond = stats.frames_per_second;
+  else if (previousStats && at > previousStats.at) {
     const frames = stats.requests + (stats.answers ?? 0) - (previousStats.requests + (previousStats.answers ?? 0));
     dashboard.framesPerSecond = Math.max(0, (frames * 1000) / (at - previousStats.at));
   }

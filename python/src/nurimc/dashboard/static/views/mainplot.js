@@ -3,15 +3,16 @@
 // motor's own samples, so every series draws a line however many motors share the bus).
 import { $, build, download } from "../core/dom.js";
 import { num, onLanguage, t } from "../core/i18n.js";
+import { seriesStyle, WINDOWS_S } from "../core/plotstyle.js";
 import { alignTracks, csv, signalValue, windowStart } from "../core/series.js";
 import { dashboard, on } from "../core/store.js";
 import { WINDOW_S } from "./motors.js";
-import { COLOURS, exportPng, makePlot, setPlotData } from "./plots.js";
+import { exportPng, makePlot, setPlotData } from "./plots.js";
 
 export const SIGNALS = [
   { key: "position", unit: "°", digits: 2 },
-  { key: "target", unit: "°", digits: 2, dash: [6, 4] },
-  { key: "error", unit: "°", digits: 2, dash: [2, 3] },
+  { key: "target", unit: "°", digits: 2 },
+  { key: "error", unit: "°", digits: 2 },
   { key: "device", unit: "°", digits: 2 },
   { key: "speed", unit: "RPM", digits: 1 },
   { key: "current", unit: "A", digits: 1 },
@@ -25,6 +26,7 @@ const main = {
   series: [],
   signals: new Set(["position"]),
   hidden: new Set(),
+  windowS: WINDOW_S, // the time window shown (selectable)
 };
 dashboard.overlay = main;
 
@@ -62,17 +64,18 @@ export function rebuild() {
   const box = $("#main-plot");
   box.replaceChildren();
   fillPickers();
-  const ids = [...dashboard.motors.keys()].sort((a, b) => a - b).filter((id) => !main.hidden.has(id));
+  const all = [...dashboard.motors.keys()].sort((a, b) => a - b);
+  const ids = all.filter((id) => !main.hidden.has(id));
   main.series = [];
   for (const id of ids)
     for (const signal of SIGNALS) if (main.signals.has(signal.key)) main.series.push({ id, signal });
   if (!main.series.length) return;
   main.plot = makePlot(box, {
-    series: main.series.map(({ id, signal }, i) => ({
+    // a colour per motor (its place among all motors: it keeps it when others are hidden), a dash per signal
+    series: main.series.map(({ id, signal }) => ({
       label: `ID ${id} ${t(`signal.${signal.key}`)}`,
       unit: signal.unit,
-      stroke: COLOURS[i % COLOURS.length],
-      dash: signal.dash,
+      ...seriesStyle(all.indexOf(id), signal.key),
       digits: signal.digits,
     })),
     height: Math.max(320, Math.min(560, Math.round(window.innerHeight * 0.55))),
@@ -99,7 +102,7 @@ function draw() {
   const tracks = main.series.map(({ id, signal }) => {
     const s = dashboard.motors.get(id)?.series;
     if (!s) return { t: [], v: [] };
-    const from = windowStart(s.t, now, WINDOW_S);
+    const from = windowStart(s.t, now, main.windowS);
     const times = s.t.slice(from);
     return { t: times, v: times.map((_, k) => signalValue(s, signal.key, from + k)) };
   });
@@ -160,6 +163,14 @@ export function startMainPlot() {
     setPaused(main.paused, main.zoomed);
   });
   $("#plot-pause").onclick = () => setPaused(!main.paused);
+  const windows = $("#plot-window");
+  windows.replaceChildren(
+    ...WINDOWS_S.map((s) => build("option", { value: String(s), textContent: `${s} s`, selected: s === main.windowS })),
+  );
+  windows.onchange = () => {
+    main.windowS = Number(windows.value);
+    main.dirty = true;
+  };
   $("#plot-csv").onclick = exportCsv;
   $("#plot-png").onclick = () => main.plot && exportPng(main.plot, "nurimc-plot.png");
   rebuild();

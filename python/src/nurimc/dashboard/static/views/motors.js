@@ -120,7 +120,7 @@ function makeCard(info) {
   };
   const motor = {
     info,
-    series: { t: [], position: [], speed: [], current: [], device: [], target: [] },
+    series: { t: [], position: [], speed: [], current: [], device: [], target: [], uncertain: [] },
     target: null, // the last move's target on the continuous scale, drawn with the actual position
     dirty: false,
     paused: false,
@@ -317,8 +317,8 @@ export function setPaused(motor, paused, zoomed = false) {
 function motorCsv(motor) {
   const s = motor.series;
   return csv(
-    ["t_s", "position_deg", "device_position_deg", "speed_rpm", "current_a", "target_deg"],
-    s.t.map((time, i) => [time, s.position[i], s.device[i], s.speed[i], s.current[i], s.target[i]]),
+    ["t_s", "position_deg", "device_position_deg", "speed_rpm", "current_a", "target_deg", "position_uncertain"],
+    s.t.map((time, i) => [time, s.position[i], s.device[i], s.speed[i], s.current[i], s.target[i], s.uncertain[i]]),
   );
 }
 
@@ -326,7 +326,7 @@ function motorCsv(motor) {
 export function addSamples(rows) {
   dashboard.samplesReceived += rows.length;
   const at = now();
-  for (const [id, serverT, position, speed, current, device] of rows) {
+  for (const [id, serverT, position, speed, current, device, uncertain] of rows) {
     const motor = dashboard.motors.get(id);
     if (!motor) continue;
     const time = serverT + dashboard.clockOffset;
@@ -337,6 +337,7 @@ export function addSamples(rows) {
     s.speed.push(speed);
     s.current.push(current);
     s.device.push(device ?? position);
+    s.uncertain.push(uncertain ? 1 : 0); // whole turns may be missing (a gap the speed could not decide)
     s.target.push(motor.target);
     trim(s, time, KEEP_S);
     motor.latest = time;
@@ -418,7 +419,10 @@ function refreshCard(motor, at) {
     age: age == null ? "–" : num(age * 1000, 0),
   });
   if (last < 0) return;
-  motor.values.position.textContent = num(s.position[last], 2);
+  const unsure = s.uncertain[last] === 1;
+  motor.values.position.textContent = unsure ? `${num(s.position[last], 2)} ?` : num(s.position[last], 2);
+  motor.values.position.title = unsure ? t("motors.positionUncertain") : t("motors.positionTitle");
+  motor.card.dataset.positionUncertain = unsure ? "yes" : "no";
   motor.values.device.textContent = num(s.device[last], 2);
   motor.values.speed.textContent = num(s.speed[last], 1);
   motor.values.current.textContent = num(s.current[last], 1);
@@ -429,11 +433,12 @@ function refreshCard(motor, at) {
 let lastCardRefresh = 0;
 function redraw() {
   const at = now();
-  const refresh = at - lastCardRefresh > 0.1;
+  const shown = !document.hidden && !$("#view-motors").classList.contains("hidden");
+  const refresh = shown && at - lastCardRefresh > 0.1;
   if (refresh) lastCardRefresh = at;
   for (const motor of dashboard.motors.values()) {
     if (refresh || motor.dirty) refreshCard(motor, at);
-    if (!motor.dirty || motor.paused) continue;
+    if (!motor.dirty || motor.paused || !shown) continue; // a hidden card's plot is drawn when it shows
     motor.dirty = false;
     const s = motor.series;
     if (!s.t.length) continue;

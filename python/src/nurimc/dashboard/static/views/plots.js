@@ -51,15 +51,22 @@ export function tickLabels(ticks) {
   return ticks.map((v) => num(v, digits));
 }
 
+/** A colour of the page's theme (light or dark, following the system: app.css). */
+const themed = (name, fallback) => getComputedStyle(document.documentElement).getPropertyValue(name).trim() || fallback;
+
 export function makePlot(box, { series, height = 260, xLabel, onZoom, onReset }) {
   const units = [...new Set(series.map((s) => s.unit))];
+  const ink = themed("--text", "#1c2330");
+  const grid = { stroke: themed("--line", "#d8dce3"), width: 1 };
   const axes = [
-    { label: xLabel, values: (_u, ticks) => tickLabels(ticks) },
+    { label: xLabel, values: (_u, ticks) => tickLabels(ticks), stroke: ink, grid, ticks: grid },
     ...units.map((unit, i) => ({
+      stroke: ink,
+      ticks: grid,
       scale: UNIT_SCALES[unit] ?? unit,
       label: unit,
       side: i === 0 ? 3 : 1,
-      grid: { show: i === 0 },
+      grid: { ...grid, show: i === 0 },
       size: 56,
       values: (_u, ticks) => tickLabels(ticks),
     })),

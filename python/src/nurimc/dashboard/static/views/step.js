@@ -154,7 +154,8 @@ async function runStep() {
     const r = await ask("step", { id, amplitude, rpm, duration });
     r.id = id;
     r.amplitude = amplitude;
-    r.gains = GAINS.map((k) => $(`#gain-${k}`).value || "?").join(" / ");
+    // the gains the motor had at the run's start (read by the server), not the typed fields
+    r.gains = r.gains && typeof r.gains === "object" ? GAINS.map((k) => r.gains[k] ?? "?").join(" / ") : "?";
     r.label = `#${dashboard.stepRuns.length + 1} ID ${id} ${amplitude}° (${r.gains})`;
     dashboard.lastStep = r;
     dashboard.stepRuns.push(r);
