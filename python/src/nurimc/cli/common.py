@@ -12,6 +12,7 @@ import re
 import signal
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -24,7 +25,7 @@ from rich.text import Text
 from typer.core import TyperCommand
 
 from ..client.sync import Bus
-from ..errors import InputError
+from ..errors import InputError, PortError
 from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
 from ..motor import Motor
 from ..products import detect_line
@@ -89,6 +90,7 @@ class Options:
     product_given: bool = False  # --product was given; else a command asks the controller its line
     rs485: bool = False  # RS485 direction control (docs/troubleshooting.md)
     rs485_invert: bool = False
+    port_wait: float = 0.0  # global --port-wait: seconds to wait for a port that is about to appear
 
 
 def one_line(message: object) -> str:
@@ -218,11 +220,26 @@ def open_bus(o: Options, reconnect: bool = False) -> Bus:
         fail("no port: give --port (e.g. /dev/ttyUSB0, socket://host:port, sim://?ids=1,2) or set NURIMC_PORT")
     rs485 = RS485(rts_level_for_tx=not o.rs485_invert) if o.rs485 else None
     tracer = FramePrinter() if o.verbose else None
-    bus = Bus.open(port, baudrate=o.baud, tracer=tracer, rs485=rs485, reconnect=reconnect)
+    bus = _open_waiting(port, o, tracer=tracer, rs485=rs485, reconnect=reconnect)
     warning = getattr(bus.transport, "warning", None)
     if warning:
         err.print(Text.assemble((tr("warning:"), "yellow"), " ", one_line(tr(one_line(warning)))), soft_wrap=True)
     return bus
+
+
+def _open_waiting(port: str, o: Options, **options: Any) -> Bus:
+    """Bus.open, retried for up to --port-wait seconds while the port cannot be opened (a
+    simulator's link or a USB adapter about to appear); then the last error, saying it waited."""
+    deadline = time.monotonic() + o.port_wait
+    while True:
+        try:
+            return Bus.open(port, baudrate=o.baud, **options)
+        except PortError as error:
+            if o.port_wait <= 0:
+                raise
+            if time.monotonic() >= deadline:
+                raise PortError(f"{error} (waited {o.port_wait:g} s, --port-wait)") from None
+            time.sleep(0.1)
 
 
 def motor_for(bus: Bus, o: Options, device_id: int, *, acts: bool = True) -> Motor:

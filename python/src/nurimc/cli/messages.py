@@ -20,6 +20,10 @@ PATTERNS: tuple[str, ...] = (
     # product lines (issue 27), reconnect (21), restore journal, MCAP repair, captures: specific
     # templates first, before the generic ones below ("{where} line {line}" would take them)
     "--line: unknown product line {value}; lines: {lines}",
+    # the first hour (issue 38): the simulator in the background, global options after the command
+    "nurimc sim: running in the background; stop it with: kill {pid}",
+    "nurimc sim: not ready after {seconds} s; stop it with: kill {pid}",
+    "{name} is a global option: {fixed}",
     "unknown product line {value}; lines: {lines}",
     "unknown product {value}; products: {products}",
     "--product: {value} is not a product; use one of {choices}",
