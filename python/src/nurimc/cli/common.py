@@ -25,6 +25,7 @@ from rich.text import Text
 from typer.core import TyperCommand
 
 from ..client.sync import Bus
+from ..collisions import shared_message, who_answers
 from ..errors import InputError, PortError
 from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
 from ..motor import Motor
@@ -250,6 +251,9 @@ def motor_for(bus: Bus, o: Options, device_id: int, *, acts: bool = True) -> Mot
         return bus.motor(device_id, o.product)
     if device_id not in bus.core.products:
         identified = bus.run(detect_line(bus.core, device_id))
+        if identified.line == "unknown" and bus.run(who_answers(bus.core, device_id)) == "shared":
+            # two new motors, both ID 0: each answer garbles the other's
+            fail(shared_message(device_id, bus.baudrate) + ("; nothing was written" if acts else ""), EXIT_DEVICE)
         if identified.line == "unknown" and acts:
             fail(
                 f"ID {device_id} at {bus.baudrate} bps answers none of the questions that tell product lines apart "

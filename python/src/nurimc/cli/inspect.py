@@ -45,9 +45,11 @@ from .common import (
 )
 from .common import note as tell_note
 from .i18n import tr
+from .scan_advice import scan_advice
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
 COUNT = Number("--count", 0, 1_000_000, whole=True)
+EXPECT = Number("--expect", 0, 255 * 18, whole=True)
 
 
 def _rates(text: str | None) -> list[int]:
@@ -60,6 +62,12 @@ def scan(
     ctx: typer.Context,
     rates: str = typer.Option(None, help="Only these rates, e.g. 9600,115200 (default: all 18)."),
     ids: str = typer.Option(None, "--ids", help="Only ping these IDs one by one, e.g. 0-10 (default: all)."),
+    expect: int = typer.Option(
+        0,
+        "--expect",
+        help="Exit 1 unless at least this many controllers are found (0: exit 0 whatever is found).",
+        parser=EXPECT,
+    ),
 ) -> None:
     """Find every controller across rates and IDs.
 
@@ -104,13 +112,17 @@ def scan(
                 guess = f.line
             guesses[(f.id, f.baudrate)] = guess
     _scan_report(o, found, guesses)
+    scan_advice(found, expect)
 
 
 def _scan_report(o: Any, found: list[Any], guesses: dict[tuple[int, int], str], interrupted: bool = False) -> None:
     """The scan's table or JSON; after Ctrl+C, what was found until then (no product read)."""
     if interrupted:
         err.print(tr(f"interrupted: the scan stopped early; {len(found)} controller(s) found so far"))
+    shared = sum(1 for f in found if f.collision)
     title = f"{len(found)} controller(s) found" + (" (interrupted)" if interrupted else "")
+    if shared and not interrupted:  # an ID answered by several is not one controller
+        title = f"{len(found) - shared} controller(s) found, and {shared} ID(s) shared by two or more controllers"
     rows = table(title, "ID", "baud", "firmware", "line", "product (guess)", "note")
     for f in found:
         note = "several controllers share this ID" if f.collision else DESCRIPTIONS.get(f.line, "")
