@@ -56,6 +56,7 @@ COMMAND_MODULES = (
     "dashboard_cmd",
     "ros2_cmd",
     "record_cmd",
+    "recording_cmd",
 )
 
 #: Commands that run until stopped: SIGTERM is their normal end (exit 0), not an interruption.

@@ -211,7 +211,9 @@ def sniff(
 def replay(
     ctx: typer.Context,
     log: str = typer.Argument(
-        ..., help="A traffic log (Bus(log_path=...)), a sigrok capture (.sr) or the nurimc sigrok decoder's output."
+        ...,
+        help="A traffic log (Bus(log_path=...)), a sigrok capture (.sr), the nurimc sigrok decoder's output, "
+        "or an MCAP recording (its summary).",
     ),
 ) -> None:
     """Decode a traffic log, or a logic-analyzer capture (docs/sigrok.md).
@@ -221,6 +223,13 @@ def replay(
     from ..sigrok import read_capture
 
     o = options(ctx)
+    from ..recording.summary import is_mcap
+
+    if is_mcap(log):  # a recording (nurimc record): what it holds (nurimc export for its samples)
+        from .recording_cmd import show_summary
+
+        show_summary(o, log)
+        return
     rows = table(log, "t (s)", "dir", "frame")
     entries: list[dict[str, Any]] = []
     key = _line(None, o).key  # the global --product: the table the frames are read with

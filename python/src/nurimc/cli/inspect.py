@@ -279,9 +279,12 @@ def watch(
                 rows.add_row(*(escape(cell) for cell in row))
             return rows
 
+        started = time.monotonic()
+
         def stream() -> None:
+            t = f"{time.monotonic() - started:.3f}"  # the time column: seconds since watch started
             for row in read_all():
-                sys.stdout.write("\t".join(tr(cell) for cell in row) + "\n")  # as a table's cells
+                sys.stdout.write("\t".join([*(tr(cell) for cell in row), t]) + "\n")  # as a table's cells
             sys.stdout.flush()
 
         # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag), from
@@ -291,7 +294,7 @@ def watch(
             if o.json or out.is_terminal:
                 live = Live(render(), console=err if o.json else out, auto_refresh=False, transient=o.json)
             else:  # a file or a pipe: lines (tab-separated, a header first), not redraws of one table
-                sys.stdout.write("\t".join(tr(c) for c in WATCH_COLUMNS) + "\n")
+                sys.stdout.write("\t".join([*(tr(c) for c in WATCH_COLUMNS), tr("t (s)")]) + "\n")
                 stream()
             n = 1
             with live or contextlib.nullcontext():
