@@ -44,7 +44,7 @@ from .common import (
     table,
 )
 from .common import note as tell_note
-from .i18n import tr
+from .i18n import setting_label, tr
 from .scan_advice import scan_advice
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
@@ -225,8 +225,8 @@ def status(ctx: typer.Context) -> None:
         rows.add_row(key, text)
     rows.add_section()
     rows.add_row("[bold]setting[/]", "")
-    for key, value in settings.items():  # setting names as typed (`get firmware`): never translated
-        rows.add_row(Text(key), Text(_setting_text(key, value)))
+    for key, value in settings.items():  # the name as typed (`get firmware`), in Korean with the document's words
+        rows.add_row(Text(setting_label(key)), Text(_setting_text(key, value)))
     document = {
         "id": device_id,
         "baud": o.baud,

@@ -15,6 +15,28 @@ from __future__ import annotations
 
 #: gettext context of PATTERNS and MESSAGES (keeps them apart from click's own lookups).
 CONTEXT = "cli"
+#: gettext context of the setting names as `status` labels them (`위치제어기 Kp (position-kp)` in
+#: Korean; the console's ko catalog has the same words, docs/glossary.md): only there, so that a
+#: name inside another line (`position-kp = 50`) stays the name the user types.
+SETTING_CONTEXT = "setting"
+SETTING_NAMES: tuple[str, ...] = (
+    "position-kp",
+    "position-ki",
+    "position-kd",
+    "position-rated-current",
+    "speed-kp",
+    "speed-ki",
+    "speed-kd",
+    "speed-rated-current",
+    "response-time",
+    "rated-speed",
+    "resolution",
+    "ratio",
+    "control",
+    "position-mode",
+    "direction",
+    "firmware",
+)
 
 PATTERNS: tuple[str, ...] = (
     # product lines (issue 27), reconnect (21), restore journal, MCAP repair, captures: specific
