@@ -48,7 +48,11 @@ def catalog(lang: str) -> dict[str, str]:
 
 def cli_korean() -> list[tuple[str, str, str | None]]:
     with PO.open("rb") as stream:
-        return [(m.id, m.string, m.context) for m in read_po(stream) if m.id and isinstance(m.id, str)]
+        return [
+            (m.id, m.string, m.context)
+            for m in read_po(stream)
+            if m.id and isinstance(m.id, str) and isinstance(m.string, str)
+        ]
 
 
 def korean_surfaces() -> dict[str, str]:
