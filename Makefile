@@ -125,7 +125,11 @@ dist: $(STAMP)  ## wheel + sdist (with the console's assets) and the npm tarball
 test-dist: dist  ## install what `make dist` built into a clean venv / scratch npm project and smoke-test it
 	$(PY) scripts/check_dist.py dist
 
-test: system-deps check-generated lint test-python fuzz-python-short conformance test-c test-embedded test-sigrok test-ts test-e2e test-dist  ## everything CI runs
+# Every suite runs even after one fails (scripts/run_suites.py runs each as `make -k SUITE`); one
+# summary at the end (suites, passed/failed/skipped, time; logs in build/test-logs/), exit 1 if any failed.
+TEST_SUITES := check-generated lint test-python fuzz-python-short conformance test-c test-embedded test-sigrok test-ts test-e2e test-dist
+test: system-deps $(STAMP)  ## everything CI runs: every suite, then one summary
+	MAKE="$(MAKE)" $(PY) scripts/run_suites.py $(TEST_SUITES)
 
 bench: $(STAMP)  ## run every benchmark and record the results (benchmarks/results/, ts/benchmarks/results/)
 	$(PY) benchmarks/protocol_bench.py

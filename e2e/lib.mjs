@@ -130,7 +130,7 @@ export const NURIMC_BIN = NURIMC;
 /** Wait until every motor card shows (a page opened on a server that knows its motors). */
 export async function openConsole(browser, url, { viewport, init } = {}) {
   const page = await browser.newPage();
-  page.setDefaultTimeout(15000);
+  page.setDefaultTimeout(60000);
   if (viewport) await page.setViewportSize(viewport);
   if (init) await page.addInitScript(init);
   await page.goto(url);

@@ -45,7 +45,7 @@ asyncio.run(main(sys.argv[1]))
 
 async function openPage(viewport) {
   const p = await browser.newPage();
-  p.setDefaultTimeout(15000);
+  p.setDefaultTimeout(60000);
   if (viewport) await p.setViewportSize(viewport);
   p.on("pageerror", (error) => problems.push(`page error: ${error.message}`));
   p.on("console", (m) => {
@@ -135,7 +135,7 @@ test("cut: 'port lost … reconnecting' with how long, badges not answering; E-S
   await page.screenshot({ path: join(SHOTS, "port-lost.png") });
 
   await proxy.restore();
-  await page.waitForSelector("#stop-banner[data-state=done]", { timeout: 20000 });
+  await page.waitForSelector("#stop-banner[data-state=done]", { timeout: 60000 });
   assert.match(await page.textContent("#stop-banner-text"), /^STOPPED after the port returned/);
   await page.waitForSelector("#port-banner.hidden", { state: "attached" });
   await page.waitForFunction(() =>

@@ -31,13 +31,14 @@ def wanted() -> list[tuple[str, str | None]]:
 
     from nurimc.cli.app import app
     from nurimc.cli.i18n import help_texts
-    from nurimc.cli.messages import CLICK_TEXTS, CONTEXT, MESSAGES, PATTERNS
+    from nurimc.cli.messages import CLICK_TEXTS, CONTEXT, MESSAGES, PATTERNS, SETTING_CONTEXT, SETTING_NAMES
 
     texts: list[tuple[str, str | None]] = []
     for text in help_texts(typer.main.get_command(app)):
         texts.append((text, None))
     texts += [(t, None) for t in CLICK_TEXTS]
     texts += [(t, CONTEXT) for t in (*PATTERNS, *MESSAGES)]
+    texts += [(t, SETTING_CONTEXT) for t in SETTING_NAMES]
     return list(dict.fromkeys(texts))
 
 

@@ -15,6 +15,7 @@ from typing import Any
 from . import backup as backup_file
 from .client.actions import Procedure, Wait
 from .client.core import BusCore
+from .collisions import IdShared, check_free, check_not_shared, ping_alone, shared_message
 from .errors import ConfirmationRequired, IdInUse, InputError, NoAnswer, SettingNotApplied, UnexpectedAnswer
 from .motor import VERIFY_WINDOW, MotorProcedures
 from .protocol import (
@@ -71,9 +72,12 @@ def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
         raise InputError(f"new ID {new} is out of range 0..254")
     if old == new:
         return
-    if (yield from answers(core, new)):
+    if (yield from ping_alone(core, new)) != "none":
         raise IdInUse(f"ID {new} already answers at {core.baudrate} bps; pick a free ID (see `nurimc scan`)")
-    if not (yield from answers(core, old)):
+    answering = yield from ping_alone(core, old)
+    if answering == "shared":  # a write to a shared ID changes them all: still shared (nurimc.collisions)
+        raise IdShared(shared_message(old, core.baudrate) + "; nothing was written")
+    if answering == "none":
         raise NoAnswer("request_ping", old, core.baudrate, core.retries + 1)
     # the core holds the next frame to either ID until the write is done
     yield from core.tell(_in_line(core, SetId(old, new)))
@@ -113,8 +117,18 @@ def change_baud(core: BusCore, device_id: int, rate: int) -> Procedure[int]:
 def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int) -> Procedure[int]:
     # an adapter that cannot run at the new rate would lose the controller: refused before anything is sent
     yield from core.check_rate(rate, f"ID {device_id} was not changed (at {rate} bps it would be out of reach)")
-    if not (yield from answers(core, device_id)):
+    answering = yield from ping_alone(core, device_id)
+    if answering == "shared":
+        raise IdShared(shared_message(device_id, old) + "; nothing was written")
+    if answering == "none":
         raise NoAnswer("request_ping", device_id, old, core.retries + 1)
+    yield from check_free(  # the target rate: no controller there may have this ID already
+        core,
+        device_id,
+        rate,
+        f"moving ID {device_id} there would make two controllers share it; nothing was written "
+        f"(give one of them another ID first: nurimc --baud {rate} --id {device_id} set id N)",
+    )
     command = _in_line(core, SetBaud(device_id, index))
     yield from core.tell(command)
     # The host's rate may change only once the frame has left the wire: a UART switched with
@@ -136,18 +150,37 @@ def _change_baud(core: BusCore, device_id: int, rate: int, index: int, old: int)
     )
 
 
-def factory_reset(core: BusCore, device_id: int, confirm: bool = False) -> Procedure[None]:
-    """Restore the document's defaults. The controller comes back as ID 0 at 9,600 bps."""
+def factory_reset(core: BusCore, device_id: int, confirm: bool = False, allow_shared: bool = False) -> Procedure[None]:
+    """Restore the document's defaults. The controller comes back as ID 0 at 9,600 bps.
+
+    Refused (IdInUse, nothing sent) when another controller already answers as ID 0 at 9,600
+    bps, unless allow_shared: the two would share ID 0 (nurimc.collisions); and when several
+    controllers share `device_id` (all of them would be reset)."""
     if not confirm:
         raise ConfirmationRequired(
             f"factory reset of ID {device_id} erases every setting (it returns as ID 0 at 9600 bps); "
             "pass confirm=True (CLI: --yes) to do it"
         )
+    if device_id != 0xFF and not allow_shared:
+        yield from check_not_shared(core, device_id)
+        if not (device_id == 0 and core.baudrate == FACTORY_BAUD):
+            yield from check_free(
+                core,
+                0,
+                FACTORY_BAUD,
+                "after the reset two controllers would share ID 0; nothing was sent. Give that controller another "
+                "ID first (nurimc --baud 9600 --id 0 set id N) or disconnect it; to reset anyway: "
+                "allow_shared=True (CLI: --allow-shared-id)",
+            )
     # busy window for the ID and for ID 0 (docs/protocol.md)
     yield from core.tell(_in_line(core, FactoryReset(device_id)))
     core.response_times.pop(device_id, None)
     if device_id in core.products and device_id != 0xFF:  # it comes back as ID 0, the same line
         core.products[0] = core.products.pop(device_id)
+
+
+#: The rate a controller comes back at after a factory reset (with ID 0).
+FACTORY_BAUD = 9600
 
 
 def recover_runaway(motor: MotorProcedures) -> Procedure[str]:

@@ -88,12 +88,12 @@ def test_hostile_server_call(expected: int, args: str) -> None:
             [NURIMC, *_argv(args, Path("."))],
             capture_output=True,
             text=True,
-            timeout=10,
+            timeout=60,
             env=env,
             stdin=subprocess.DEVNULL,
         )
     except subprocess.TimeoutExpired:
-        pytest.fail(f"nurimc {args}: still running after 10 s (it should have refused the value)")
+        pytest.fail(f"nurimc {args}: still running after 60 s (it should have refused the value)")
     assert "Traceback" not in done.stderr, done.stderr
     assert done.returncode != 0 and len(done.stderr.strip().splitlines()) == 1, done.stderr  # one line
     assert done.returncode == expected, f"nurimc {args}: {done.returncode}, expected {expected}: {done.stderr!r}"

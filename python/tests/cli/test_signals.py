@@ -30,52 +30,83 @@ def start(*args: str) -> subprocess.Popen[str]:
     )
 
 
-def wait_for(proc: subprocess.Popen[str], pattern: str, timeout: float = 20) -> str:
-    """Read stdout until a line matches (the command is up and working)."""
-    assert proc.stdout is not None
+def wait_for(
+    proc: subprocess.Popen[str], pattern: str, timeout: float = 60, *, stderr: bool = False, times: int = 1
+) -> str:
+    """Read stdout (or stderr) until `times` lines match (the command is up and working); return
+    everything read."""
+    stream = proc.stderr if stderr else proc.stdout
+    assert stream is not None
     selector = selectors.DefaultSelector()
-    selector.register(proc.stdout, selectors.EVENT_READ)
+    selector.register(stream, selectors.EVENT_READ)
     seen = ""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if selector.select(timeout=0.2):
-            line = proc.stdout.readline()
+            line = stream.readline()
             if not line:
                 break
             seen += line
             if re.search(pattern, line):
-                return line
+                times -= 1
+                if times <= 0:
+                    return seen
     proc.kill()
-    pytest.fail(f"no line matching {pattern!r} within {timeout} s; stdout {seen!r}; stderr {proc.communicate()[1]!r}")
+    pytest.fail(f"no line matching {pattern!r} within {timeout} s; {'stderr' if stderr else 'stdout'} {seen!r}")
+
+
+def wait_until_listening(proc: subprocess.Popen[str], timeout: float = 60) -> None:
+    """Wait until the command catches SIGTERM (its handler is installed, so the command is known)
+    and the in-process simulator's thread runs (the bus is open): the condition a fixed sleep
+    used to guess at. Linux: read from /proc/PID/status."""
+    status = Path(f"/proc/{proc.pid}/status")
+    deadline = time.monotonic() + timeout
+    fields: dict[str, str] = {}
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        try:
+            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
+        except OSError:
+            fields = {}
+        catches_term = int(fields.get("SigCgt", "0").strip(), 16) & (1 << (signal.SIGTERM - 1))
+        if catches_term and int(fields.get("Threads", "1").strip()) >= 2:
+            return
+        time.sleep(0.02)
+    proc.kill()
+    pytest.fail(f"not listening within {timeout} s: {fields.get('Threads')=} {fields.get('SigCgt')=}")
 
 
 def terminate(proc: subprocess.Popen[str]) -> tuple[int, str, str]:
     proc.send_signal(signal.SIGTERM)
     try:
-        out, err = proc.communicate(timeout=15)
+        out, err = proc.communicate(timeout=60)
     except subprocess.TimeoutExpired:
         proc.kill()
-        pytest.fail("still running 15 s after SIGTERM")
+        pytest.fail("still running 60 s after SIGTERM")
     return proc.returncode, out, err
 
 
 @pytest.mark.parametrize(
-    ("args", "running"),
+    "args",
     [
-        (["--port", SIM, "sniff"], None),  # prints nothing until a frame passes: wait a moment
-        (["--port", SIM, "--id", "1", "watch", "--interval", "0.05"], None),  # off a terminal: lines
-        (["--port", SIM, "--id", "0,1", "--json", "watch", "--interval", "0.05"], None),
+        ["--port", SIM, "sniff"],  # prints nothing until a frame passes: wait until it listens
+        ["--port", SIM, "--id", "1", "watch", "--interval", "0.05"],  # off a terminal: lines
+        # -v: the frames on stderr show the first reading done and the second one asked for
+        ["--port", SIM, "--id", "0,1", "--json", "-v", "watch", "--interval", "0.05"],
     ],
     ids=["sniff", "watch", "watch --json"],
 )
-def test_long_runners_end_cleanly_on_sigterm(args: list[str], running: str | None) -> None:
+def test_long_runners_end_cleanly_on_sigterm(args: list[str]) -> None:
     proc = start(*args)
-    if running:
-        wait_for(proc, running)
+    before = ""  # stdout read while waiting
+    if "sniff" in args:
+        wait_until_listening(proc)  # started, opened the simulated bus, listening
+    elif "--json" in args:
+        wait_for(proc, r"^<- position_feedback id=1 ", stderr=True, times=2)
     else:
-        time.sleep(1.5)  # started, opened the simulated bus, listening
-        assert proc.poll() is None, proc.communicate()
+        before = wait_for(proc, r"^1\t")  # a reading printed: watching
     code, out, err = terminate(proc)
+    out = before + out
     assert code == 0, (code, err)
     assert "Traceback" not in err and "error:" not in err, err
     if "--json" in args:

@@ -50,7 +50,7 @@ def port(request: pytest.FixtureRequest) -> Iterator[str]:
 @pytest.mark.parametrize("how", [("run", "0"), ("stop",)])
 def test_a_turning_motor_comes_to_rest_and_holds(port: str, how: tuple[str, ...]) -> None:
     assert cli(port, "run", "120", "--ramp", "0.2").returncode == 0
-    deadline = time.monotonic() + 5
+    deadline = time.monotonic() + 30
     while reading(port)["speed_rpm"] < 100:
         assert time.monotonic() < deadline, "the motor never reached 120 RPM"
     stopped = cli(port, "--json", *how)

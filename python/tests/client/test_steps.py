@@ -253,6 +253,29 @@ def rate_checked(s: Stepper[int]) -> None:
     assert s.baud() == 9600
 
 
+def target_checked(s: Stepper[int], rate: int = 115200) -> None:
+    """Then that no controller at the new rate has the ID already (nurimc.collisions): there, one
+    ping, silence, and back."""
+    assert s.baud() == rate
+    assert s.sent() == RequestPing(1).encode()
+    s.silence()
+    assert s.baud() == 9600
+
+
+def test_change_baud_is_refused_when_the_id_answers_at_the_new_rate() -> None:
+    core = bus_core(9600, busy_window=0.05)
+    s = Stepper(change_baud(core, 1, 115200))
+    rate_checked(s)
+    assert s.sent() == RequestPing(1).encode()
+    s.receive(Ping(1).encode())
+    assert s.baud() == 115200
+    assert s.sent() == RequestPing(1).encode()
+    s.receive(Ping(1).encode())  # another controller with ID 1 at 115200 bps
+    with pytest.raises(IdInUse, match="ID 1 already answers at 115200 bps"):
+        s.baud()
+    assert core.baudrate == 9600
+
+
 def test_change_baud_to_a_rate_the_adapter_refuses_sends_nothing() -> None:
     core = bus_core(9600, busy_window=0.05)
     s = Stepper(change_baud(core, 1, 250000))
@@ -268,6 +291,7 @@ def test_change_baud_switches_the_host_and_verifies_at_the_new_rate() -> None:
     rate_checked(s)
     assert s.sent() == RequestPing(1).encode()
     s.receive(Ping(1).encode())
+    target_checked(s)
     assert s.sent() == SetBaud(1, baud_index(115200)).encode()
     assert s.baud() == 115200
     assert s.sent() == RequestPing(1).encode()
@@ -282,6 +306,7 @@ def test_change_baud_interrupted_after_the_switch_puts_the_host_back(failure: Ba
     rate_checked(s)
     s.sent()
     s.receive(Ping(1).encode())
+    target_checked(s)
     s.sent()
     s.baud()
     s.expect(Send)
@@ -298,6 +323,7 @@ def test_change_baud_that_did_not_take_says_where_the_controller_is() -> None:
     rate_checked(s)
     s.sent()
     s.receive(Ping(1).encode())
+    target_checked(s)
     s.sent()
     assert s.baud() == 115200
     while type(s.action) is not SetHostBaud:  # silence at the new rate for the whole verify window

@@ -61,10 +61,10 @@ def test_kill_9_keeps_everything_up_to_the_last_checkpoint(tmp_path: Path) -> No
         env=ENV,
     )
     try:
-        wait_for_line(proc, "ready:")
-        time.sleep(3.5)
+        wait_for_line(proc, "ready:", timeout=90)
+        wait_for_recorded(path, 2.5)  # checkpointed on disk: what the kill must not lose
         proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=10)
+        proc.wait(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -79,6 +79,24 @@ def test_kill_9_keeps_everything_up_to_the_last_checkpoint(tmp_path: Path) -> No
     assert [
         m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec for m in theirs if hasattr(m, "header")
     ] == stamps
+
+
+def wait_for_recorded(path: Path, seconds: float, timeout: float = 90) -> None:
+    """Wait until the file, read as it is on disk (its last checkpoint), holds `seconds` of
+    /joint_states (0: at least one), instead of sleeping and hoping the busy machine kept up."""
+    deadline = time.monotonic() + timeout
+    span = -1.0
+    while time.monotonic() < deadline:
+        try:
+            stamps = joint_state_stamps(path)
+        except Exception:  # not written yet, or between checkpoints: try again
+            stamps = []
+        if stamps:
+            span = (stamps[-1] - stamps[0]) / 1e9
+            if span >= seconds:
+                return
+        time.sleep(0.1)
+    raise AssertionError(f"{path}: {span:.2f} s of /joint_states after {timeout} s (wanted {seconds} s)")
 
 
 def free_port() -> int:
@@ -100,7 +118,7 @@ def test_record_exits_non_zero_when_its_port_dies(tmp_path: Path) -> None:
     path = tmp_path / "lost.mcap"
     record = None
     try:
-        wait_for_line(sim, "ready:")
+        wait_for_line(sim, "ready:", timeout=90)
         record = subprocess.Popen(
             [
                 NURIMC,
@@ -119,11 +137,11 @@ def test_record_exits_non_zero_when_its_port_dies(tmp_path: Path) -> None:
             text=True,
             env=ENV,
         )
-        wait_for_line(record, "ready:")
-        time.sleep(0.5)
+        wait_for_line(record, "ready:", timeout=90)
+        wait_for_recorded(path, 0)  # something recorded before the loss
         sim.terminate()
-        sim.wait(timeout=10)
-        stdout, stderr = record.communicate(timeout=30)
+        sim.wait(timeout=60)
+        stdout, stderr = record.communicate(timeout=90)
     finally:
         for p in (sim, record):
             if p is not None and p.poll() is None:

@@ -136,11 +136,12 @@ def test_record_command(tmp_path: Path) -> None:
         ],
         capture_output=True,
         text=True,
-        timeout=30,
+        timeout=120,
         env={**os.environ, "NO_COLOR": "1", "COLUMNS": "200"},
     )
     assert proc.returncode == 0, proc.stderr
     assert f"wrote {path}" in proc.stdout
+    assert "(ends after 0.5 s, or Ctrl-C)" in proc.stdout and "(Ctrl-C ends)" not in proc.stdout  # as asked
     with path.open("rb") as stream:
         topics: dict[str, int] = {}
         for _, channel, message in make_reader(stream).iter_messages():
@@ -156,7 +157,7 @@ def test_record_refuses_an_unwritable_file(tmp_path: Path) -> None:
         [NURIMC, "--port", "sim://?ids=1,", "record", "--mcap", str(tmp_path / "no" / "such" / "x.mcap")],
         capture_output=True,
         text=True,
-        timeout=30,
+        timeout=120,
         env={**os.environ, "NO_COLOR": "1", "COLUMNS": "200"},
     )
     assert proc.returncode == 2 and "cannot write" in proc.stderr and "Traceback" not in proc.stderr
@@ -169,7 +170,7 @@ def test_record_without_ids_records_the_controllers_it_finds(tmp_path: Path) -> 
         [NURIMC, "--port", "sim://?ids=2,5", "record", "--mcap", str(path), "--rate", "20", "--seconds", "0.3"],
         capture_output=True,
         text=True,
-        timeout=30,
+        timeout=120,
         env={**os.environ, "NO_COLOR": "1", "COLUMNS": "200"},
     )
     assert proc.returncode == 0, proc.stderr

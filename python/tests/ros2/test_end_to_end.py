@@ -46,7 +46,7 @@ class BridgeProcess:
         threading.Thread(target=self._pump, args=(self.process.stdout, self.lines.put), daemon=True).start()
         threading.Thread(target=self._pump, args=(self.process.stderr, self.stderr.append), daemon=True).start()
         try:
-            line = self.lines.get(timeout=20)
+            line = self.lines.get(timeout=90)
         except queue.Empty:
             line = ""
         if not line.startswith("ready:"):
@@ -62,7 +62,7 @@ class BridgeProcess:
         if self.process.poll() is None:
             self.process.send_signal(signal.SIGINT)
         try:
-            return self.process.wait(timeout=15)
+            return self.process.wait(timeout=60)
         except subprocess.TimeoutExpired:
             self.process.kill()
             raise
@@ -276,7 +276,7 @@ def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
         states.wait_for(lambda s: True, 10, "joint_states")
         time.sleep(0.2)
         forward = TwistStamped(Header(Time(0, 0), "base_link"), Twist(Vector3(0.3, 0.0, 0.0), Vector3(0.0, 0.0, 0.0)))
-        deadline = time.monotonic() + 4
+        deadline = time.monotonic() + 30
         turning = None
         while time.monotonic() < deadline and turning is None:
             cmd_vel.write(forward)

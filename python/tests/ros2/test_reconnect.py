@@ -33,7 +33,7 @@ class Bridge:
         assert self.process.stdout is not None and self.process.stderr is not None
         threading.Thread(target=self._pump, args=(self.process.stdout, self.lines.put), daemon=True).start()
         threading.Thread(target=self._pump, args=(self.process.stderr, self.stderr.append), daemon=True).start()
-        line = self.lines.get(timeout=20)
+        line = self.lines.get(timeout=90)
         assert line.startswith("ready:"), line + "".join(self.stderr)
 
     @staticmethod
@@ -54,7 +54,7 @@ class Bridge:
         if self.process.poll() is None:
             self.process.send_signal(signal.SIGINT)
         try:
-            return self.process.wait(timeout=15)
+            return self.process.wait(timeout=60)
         except subprocess.TimeoutExpired:
             self.process.kill()
             raise

@@ -55,7 +55,7 @@ def test_an_interrupted_restore_is_found_and_completed(slow_eeprom: tuple[SimBus
             assert time.monotonic() < deadline and proc.poll() is None, "restore wrote nothing"
             time.sleep(0.01)
         proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=10)
+        proc.wait(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -69,7 +69,7 @@ def _start(args: list[str]) -> tuple[subprocess.Popen[str], str]:
         lines.append(line)
         if line.startswith("ready: "):
             return proc, line.removeprefix("ready: ").strip()
-    proc.wait(timeout=10)
+    proc.wait(timeout=60)
     raise AssertionError(f"no ready line: {lines} {proc.stderr.read() if proc.stderr else ''}")
 
 
@@ -84,7 +84,7 @@ def test_cli_serves_pty_until_sigterm(tmp_path: Path) -> None:
             assert ask(port, 9, 0xA0) == b""
     finally:
         proc.send_signal(signal.SIGTERM)
-        out, err = proc.communicate(timeout=10)
+        out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert "stopped" in out
     assert "request_ping" in err.lower() or "RequestPing" in err  # -v logged the frames
@@ -101,7 +101,7 @@ def test_cli_tcp_and_bad_options() -> None:
             assert port.read(6) == frame(1, 0xD0)
     finally:
         proc.send_signal(signal.SIGINT)
-        proc.communicate(timeout=10)
+        proc.communicate(timeout=60)
     assert proc.returncode == 0
     bad = subprocess.run(
         [sys.executable, "-m", "nurimc.sim", "--motor", "3-57600"], capture_output=True, text=True, timeout=30

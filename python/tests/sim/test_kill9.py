@@ -41,7 +41,7 @@ def _start(state: Path) -> tuple[subprocess.Popen[str], str]:
     for line in proc.stdout:
         if line.startswith("ready: "):
             return proc, line.removeprefix("ready: ").strip()
-    proc.wait(timeout=10)
+    proc.wait(timeout=60)
     raise AssertionError(f"simulator did not start: {proc.stderr.read() if proc.stderr else ''}")
 
 
@@ -76,8 +76,8 @@ def test_kill_9_never_loses_an_acknowledged_write(tmp_path: Path) -> None:
         killer.start()
         acknowledged, sent = _write_until_killed(address, next_value)
         killer.join()
-        proc.wait(timeout=10)
-        proc.communicate(timeout=10)
+        proc.wait(timeout=60)
+        proc.communicate(timeout=60)
         assert proc.returncode == -signal.SIGKILL
         if acknowledged is not None:
             acknowledged_writes += acknowledged - next_value + 1
@@ -94,7 +94,7 @@ def test_kill_9_never_loses_an_acknowledged_write(tmp_path: Path) -> None:
             assert value in (acknowledged, sent), f"trial {trial}: stored {value}, acknowledged {acknowledged}"
         finally:
             proc.send_signal(signal.SIGTERM)
-            proc.communicate(timeout=10)
+            proc.communicate(timeout=60)
         stored_before = value
         next_value = (sent or next_value) + 1
     assert acknowledged_writes >= 20, "too few writes were acknowledged for the trials to mean anything"

@@ -206,7 +206,7 @@ def _start(args: list[str], endpoints: int) -> tuple[subprocess.Popen[str], list
             ready.append(line.removeprefix("ready: ").strip())
             if len(ready) == endpoints:
                 return proc, ready
-    proc.wait(timeout=10)
+    proc.wait(timeout=60)
     raise AssertionError(proc.stderr.read() if proc.stderr else "no ready lines")
 
 
@@ -231,7 +231,7 @@ def test_cli_monitor_hears_the_hosts_requests_and_commands(tmp_path: Path) -> No
         ]
     finally:
         proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=10)
+        proc.communicate(timeout=60)
     assert proc.returncode == 0
     assert not link.exists() and not monitor.exists()
 

@@ -81,7 +81,7 @@ def test_sniff_listens_again_when_its_port_returns(tmp_path: Path) -> None:
         time.sleep(CUT)
         proxy.restore()
         sniff.wait(timeout=30)
-        reader.join(timeout=5)
+        reader.join(timeout=30)
         assert sniff.stderr is not None
         err = sniff.stderr.read()
     finally:

@@ -39,6 +39,7 @@ from .common import (
     EXIT_USAGE,
     USAGE_ERROR,
     InputBadParameter,
+    Number,
     Options,
     Terminated,
     check_baud,
@@ -48,6 +49,10 @@ from .common import (
 )
 from .i18n import DOMAIN, LOCALE_DIR, activated, tr, translate_help
 from .i18n import _ as tr_help
+from .placement import where_it_goes
+
+#: --port-wait's range (seconds)
+PORT_WAIT = Number("--port-wait", 0, 3600, "s")
 
 #: Every module of commands (in nurimc.cli), in the order `nurimc --help` lists them.
 COMMAND_MODULES = (
@@ -61,6 +66,7 @@ COMMAND_MODULES = (
     "ros2_cmd",
     "record_cmd",
     "service_cmd",
+    "recording_cmd",
 )
 
 #: Commands that run until stopped: SIGTERM is their normal end (exit 0), not an interruption.
@@ -172,7 +178,15 @@ def main_options(
     product: str = typer.Option(
         None,
         "--product",
-        help="Product: mc, blmc-h, rsa, rsavw, sa, sm, sm-cs, sm-readme (default: the line the controller answers as).",
+        "--line",
+        help="Product: mc, blmc-h, rsa, rsavw, sa, sm, sm-cs, sm-readme (default: the line the controller answers as). "
+        "Also the table decode, encode, sniff and replay read frames with. --line: the same (for one release).",
+    ),
+    port_wait: str = typer.Option(
+        "0",
+        "--port-wait",
+        envvar="NURIMC_PORT_WAIT",
+        help="Wait up to this many seconds for the port to appear (a simulator or an adapter just started).",
     ),
     rs485: bool = typer.Option(
         False, "--rs485", envvar="NURIMC_RS485", help="Drive the RS485 direction with RTS (no auto-direction adapter)."
@@ -191,6 +205,7 @@ def main_options(
     ctx.obj.rs485 = rs485 or rs485_invert
     ctx.obj.rs485_invert = rs485_invert
     ctx.obj.command = ctx.invoked_subcommand or ""  # how an attached program is listed (nurimc clients)
+    ctx.obj.port_wait = PORT_WAIT(port_wait)
     _invoked[:] = [ctx.invoked_subcommand or ""]
 
 
@@ -308,7 +323,7 @@ TRAILING_FLAGS = frozenset({"--json", "-v", "--verbose"})
 
 
 #: Global options that take a value (the token after them is that value, not the command).
-VALUED_GLOBALS = frozenset({"--port", "-p", "--baud", "-b", "--id", "-i", "--product"})
+VALUED_GLOBALS = frozenset({"--port", "-p", "--baud", "-b", "--id", "-i", "--product", "--line", "--port-wait"})
 #: Commands with a -v of their own (`nurimc sim -v` logs frames): their flags stay where they are.
 OWN_VERBOSE = frozenset({"sim"})
 
@@ -357,7 +372,14 @@ def main(args: list[str] | None = None) -> None:
         err.print(tr("interrupted"))
         code = 130
     except Exception as error:
-        code = _report(error, verbose)
+        hint = (
+            where_it_goes(getattr(error, "option_name", None), args) if type(error).__name__ == "NoSuchOption" else None
+        )
+        if hint:  # `nurimc status --id 1`: say where --id goes
+            say_error(hint)
+            code = EXIT_USAGE
+        else:
+            code = _report(error, verbose)
     finally:
         language.close()
         with contextlib.suppress(OSError, AttributeError):

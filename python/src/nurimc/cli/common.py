@@ -12,6 +12,7 @@ import re
 import signal
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -23,7 +24,7 @@ from rich.console import Console
 from rich.text import Text
 from typer.core import TyperCommand
 
-from ..errors import InputError
+from ..errors import InputError, PortError
 from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
 from ..protocol import BAUD_RATES, StreamParser
 from .i18n import tr
@@ -90,6 +91,7 @@ class Options:
     rs485: bool = False  # RS485 direction control (docs/troubleshooting.md)
     rs485_invert: bool = False
     command: str = ""  # the command being run (an attached program is listed by it: nurimc clients)
+    port_wait: float = 0.0  # global --port-wait: seconds to wait for a port that is about to appear
 
 
 def one_line(message: object) -> str:
@@ -229,23 +231,44 @@ def open_bus(o: Options, reconnect: bool = False, attach: bool = True) -> Bus:
         shared = attached_bus(port, o.baud, tracer, o.command)
         if shared is not None:
             return shared
-    bus = Bus.open(port, baudrate=o.baud, tracer=tracer, rs485=rs485, reconnect=reconnect)
+    bus = _open_waiting(port, o, tracer=tracer, rs485=rs485, reconnect=reconnect)
     warning = getattr(bus.transport, "warning", None)
     if warning:
         err.print(Text.assemble((tr("warning:"), "yellow"), " ", one_line(tr(one_line(warning)))), soft_wrap=True)
     return bus
 
 
+def _open_waiting(port: str, o: Options, **options: Any) -> Bus:
+    """Bus.open, retried for up to --port-wait seconds while the port cannot be opened (a
+    simulator's link or a USB adapter about to appear); then the last error, saying it waited."""
+    from ..client.sync import Bus
+
+    deadline = time.monotonic() + o.port_wait
+    while True:
+        try:
+            return Bus.open(port, baudrate=o.baud, **options)
+        except PortError as error:
+            if o.port_wait <= 0:
+                raise
+            if time.monotonic() >= deadline:
+                raise PortError(f"{error} (waited {o.port_wait:g} s, --port-wait)") from None
+            time.sleep(0.1)
+
+
 def motor_for(bus: Bus, o: Options, device_id: int, *, acts: bool = True) -> Motor:
     """The motor handle of a command in its product line: --product if given, else the line the
     controller answers as (nurimc.products). A command that acts is refused when the line cannot
     be told (the same bytes mean other commands in other lines); a read goes ahead as MC."""
+    from ..collisions import shared_message, who_answers
     from ..products import detect_line
 
     if o.product_given:
         return bus.motor(device_id, o.product)
     if device_id not in bus.core.products:
         identified = bus.run(detect_line(bus.core, device_id))
+        if identified.line == "unknown" and bus.run(who_answers(bus.core, device_id)) == "shared":
+            # two new motors, both ID 0: each answer garbles the other's
+            fail(shared_message(device_id, bus.baudrate) + ("; nothing was written" if acts else ""), EXIT_DEVICE)
         if identified.line == "unknown" and acts:
             fail(
                 f"ID {device_id} at {bus.baudrate} bps answers none of the questions that tell product lines apart "

@@ -26,7 +26,7 @@ from ..protocol import (
     wire_bytes,
 )
 from ..trafficlog import read_traffic_log
-from .common import STOP, Number, emit, fail, note, open_bus, options, say_line, table
+from .common import STOP, Number, Options, emit, fail, note, open_bus, options, say_line, table
 from .common import note as tell
 
 BROADCAST = 0xFF
@@ -66,24 +66,36 @@ def _hex_arguments(args: list[str]) -> bytes:
 LINE_HELP = "Product line whose mode table reads the frame: " + ", ".join(ALL_LINES) + " (docs/protocol.md)."
 
 
-def _line(name: str) -> Line:
+def _line(name: str | None, o: Options | None = None) -> Line:
+    """The table frames are read with: the command's --product/--line, else the global
+    --product (`nurimc --product rsa decode HEX`), else MC. A product is read with its line's
+    table (BLMC-H speaks MC's)."""
+    if name is None:
+        name = o.product if o is not None and o.product_given else "mc"
+    name = LINE_OF_PRODUCT.get(name, name)
     try:
         return line(name)
     except UnknownLineError as error:
         fail(f"--line: {error}")
 
 
+#: Products whose frames are another product line's (the rest are their own line).
+LINE_OF_PRODUCT = {"blmc-h": "mc"}
+#: The command's own spelling of the global --product (either name; --line for one release).
+LINE_OPTION = ("--product", "--line")
+
+
 def decode_(
     ctx: typer.Context,
     hex_bytes: list[str] = typer.Argument(..., help="Hex bytes, '-' for stdin, or a file."),
-    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
+    line_name: str | None = typer.Option(None, *LINE_OPTION, help=LINE_HELP),
 ) -> None:
     """Decode frames: fields in physical units, or what is wrong.
 
-    Example: nurimc decode FF FE 00 07 76 01 00 46 50 03 E8   (an RSA's frame: --line rsa)
+    Example: nurimc --product rsa decode FF FE 00 07 76 01 00 46 50 03 E8   (an RSA's frame)
     """
     o = options(ctx)
-    product_line = _line(line_name)
+    product_line = _line(line_name, o)
     data = _hex_arguments(hex_bytes)
     try:
         frames, problems = [product_line.decode(data)], []
@@ -126,14 +138,14 @@ def encode(
         "2s, 8A) is a physical value, as `set` takes it.",
     ),
     device_id: int = typer.Option(0, "--to", help=f"ID to address ({TO.allowed}; 255 = broadcast).", parser=TO),
-    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
+    line_name: str | None = typer.Option(None, *LINE_OPTION, help=LINE_HELP),
 ) -> None:
     """Build a frame with the right checksum.
 
     Example: nurimc encode position_speed direction=0 position=180deg speed=100rpm --to 0
     """
     o = options(ctx)
-    product_line = _line(line_name)
+    product_line = _line(line_name, o)
     cls = product_line.classes.get(message)
     if cls is None:
         fail(
@@ -166,14 +178,14 @@ def sniff(
     duration: float = typer.Option(
         0, help=f"Stop after this many seconds ({DURATION.allowed}; 0: until Ctrl+C).", parser=DURATION
     ),
-    line_name: str = typer.Option("mc", "--line", help=LINE_HELP),
+    line_name: str | None = typer.Option(None, *LINE_OPTION, help=LINE_HELP),
 ) -> None:
     """Listen without sending and decode everything on the bus, with timestamps.
 
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 sniff
     """
     o = options(ctx)
-    parser, seen = StreamParser(line=_line(line_name).key), []
+    parser, seen = StreamParser(line=_line(line_name, o).key), []
     start = time.monotonic()
     with open_bus(o, reconnect=True) as bus:
         outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each on stderr
@@ -199,7 +211,9 @@ def sniff(
 def replay(
     ctx: typer.Context,
     log: str = typer.Argument(
-        ..., help="A traffic log (Bus(log_path=...)), a sigrok capture (.sr) or the nurimc sigrok decoder's output."
+        ...,
+        help="A traffic log (Bus(log_path=...)), a sigrok capture (.sr), the nurimc sigrok decoder's output, "
+        "or an MCAP recording (its summary).",
     ),
 ) -> None:
     """Decode a traffic log, or a logic-analyzer capture (docs/sigrok.md).
@@ -209,9 +223,17 @@ def replay(
     from ..sigrok import read_capture
 
     o = options(ctx)
+    from ..recording.summary import is_mcap
+
+    if is_mcap(log):  # a recording (nurimc record): what it holds (nurimc export for its samples)
+        from .recording_cmd import show_summary
+
+        show_summary(o, log)
+        return
     rows = table(log, "t (s)", "dir", "frame")
     entries: list[dict[str, Any]] = []
-    parsers = {"tx": StreamParser(), "rx": StreamParser()}
+    key = _line(None, o).key  # the global --product: the table the frames are read with
+    parsers = {"tx": StreamParser(line=key), "rx": StreamParser(line=key)}
     try:
         capture = read_capture(log)  # None: not a capture, a traffic log
         lines = read_traffic_log(log) if capture is None else capture

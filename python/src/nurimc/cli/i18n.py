@@ -29,7 +29,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from .messages import CONTEXT, PATTERNS
+from .messages import CONTEXT, PATTERNS, SETTING_CONTEXT
 
 DOMAIN = "nurimc"
 LOCALE_DIR = str(Path(__file__).with_name("locale"))
@@ -57,6 +57,13 @@ def _pattern(template: str) -> re.Pattern[str]:
         re.escape(p) if i % 2 == 0 else f"(?P<{p}>{DIGITS if p in NUMBERED else '.*?'})" for i, p in enumerate(parts)
     )
     return re.compile(regex + r"\Z", re.DOTALL)
+
+
+def setting_label(name: str) -> str:
+    """A setting's name as `status` shows it: in Korean the document's words with the name the
+    user types beside it (`위치제어기 Kp (position-kp)`), in English the name itself."""
+    label = catalog().pgettext(SETTING_CONTEXT, name)
+    return name if label == name else f"{label} ({name})"
 
 
 def tr(text: str, depth: int = 0) -> str:

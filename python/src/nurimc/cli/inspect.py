@@ -47,10 +47,12 @@ from .common import (
     table,
 )
 from .common import note as tell_note
-from .i18n import tr
+from .i18n import setting_label, tr
+from .scan_advice import scan_advice
 
 INTERVAL = Number("--interval", 0.01, 3600, "s")
 COUNT = Number("--count", 0, 1_000_000, whole=True)
+EXPECT = Number("--expect", 0, 255 * 18, whole=True)
 
 
 def _rates(text: str | None) -> list[int]:
@@ -63,6 +65,12 @@ def scan(
     ctx: typer.Context,
     rates: str = typer.Option(None, help="Only these rates, e.g. 9600,115200 (default: all 18)."),
     ids: str = typer.Option(None, "--ids", help="Only ping these IDs one by one, e.g. 0-10 (default: all)."),
+    expect: int = typer.Option(
+        0,
+        "--expect",
+        help="Exit 1 unless at least this many controllers are found (0: exit 0 whatever is found).",
+        parser=EXPECT,
+    ),
 ) -> None:
     """Find every controller across rates and IDs.
 
@@ -114,13 +122,17 @@ def scan(
                 guess = f.line
             guesses[(f.id, f.baudrate)] = guess
     _scan_report(o, found, guesses)
+    scan_advice(found, expect)
 
 
 def _scan_report(o: Any, found: list[Any], guesses: dict[tuple[int, int], str], interrupted: bool = False) -> None:
     """The scan's table or JSON; after Ctrl+C, what was found until then (no product read)."""
     if interrupted:
         err.print(tr(f"interrupted: the scan stopped early; {len(found)} controller(s) found so far"))
+    shared = sum(1 for f in found if f.collision)
     title = f"{len(found)} controller(s) found" + (" (interrupted)" if interrupted else "")
+    if shared and not interrupted:  # an ID answered by several is not one controller
+        title = f"{len(found) - shared} controller(s) found, and {shared} ID(s) shared by two or more controllers"
     rows = table(title, "ID", "baud", "firmware", "line", "product (guess)", "note")
     for f in found:
         note = "several controllers share this ID" if f.collision else DESCRIPTIONS.get(f.line, "")
@@ -225,8 +237,8 @@ def status(ctx: typer.Context) -> None:
         rows.add_row(key, text)
     rows.add_section()
     rows.add_row("[bold]setting[/]", "")
-    for key, value in settings.items():  # setting names as typed (`get firmware`): never translated
-        rows.add_row(Text(key), Text(_setting_text(key, value)))
+    for key, value in settings.items():  # the name as typed (`get firmware`), in Korean with the document's words
+        rows.add_row(Text(setting_label(key)), Text(_setting_text(key, value)))
     document = {
         "id": device_id,
         "baud": o.baud,
@@ -287,9 +299,12 @@ def watch(
                 rows.add_row(*(escape(cell) for cell in row))
             return rows
 
+        started = time.monotonic()
+
         def stream() -> None:
+            t = f"{time.monotonic() - started:.3f}"  # the time column: seconds since watch started
             for row in read_all():
-                sys.stdout.write("\t".join(tr(cell) for cell in row) + "\n")  # as a table's cells
+                sys.stdout.write("\t".join([*(tr(cell) for cell in row), t]) + "\n")  # as a table's cells
             sys.stdout.flush()
 
         # Ctrl+C or SIGTERM: the normal end of watching, taken between readings (stop_flag), from
@@ -299,7 +314,7 @@ def watch(
             if o.json or out.is_terminal:
                 live = Live(render(), console=err if o.json else out, auto_refresh=False, transient=o.json)
             else:  # a file or a pipe: lines (tab-separated, a header first), not redraws of one table
-                sys.stdout.write("\t".join(tr(c) for c in WATCH_COLUMNS) + "\n")
+                sys.stdout.write("\t".join([*(tr(c) for c in WATCH_COLUMNS), tr("t (s)")]) + "\n")
                 stream()
             n = 1
             with live or contextlib.nullcontext():

@@ -15,11 +15,42 @@ from __future__ import annotations
 
 #: gettext context of PATTERNS and MESSAGES (keeps them apart from click's own lookups).
 CONTEXT = "cli"
+#: gettext context of the setting names as `status` labels them (`위치제어기 Kp (position-kp)` in
+#: Korean; the console's ko catalog has the same words, docs/glossary.md): only there, so that a
+#: name inside another line (`position-kp = 50`) stays the name the user types.
+SETTING_CONTEXT = "setting"
+SETTING_NAMES: tuple[str, ...] = (
+    "position-kp",
+    "position-ki",
+    "position-kd",
+    "position-rated-current",
+    "speed-kp",
+    "speed-ki",
+    "speed-kd",
+    "speed-rated-current",
+    "response-time",
+    "rated-speed",
+    "resolution",
+    "ratio",
+    "control",
+    "position-mode",
+    "direction",
+    "firmware",
+)
 
 PATTERNS: tuple[str, ...] = (
     # product lines (issue 27), reconnect (21), restore journal, MCAP repair, captures: specific
     # templates first, before the generic ones below ("{where} line {line}" would take them)
     "--line: unknown product line {value}; lines: {lines}",
+    # the first hour (issue 38): the simulator in the background, global options after the command
+    "nurimc sim: running in the background; stop it with: kill {pid}",
+    "nurimc sim: not ready after {seconds} s; stop it with: kill {pid}",
+    "{name} is a global option: {fixed}",
+    "two or more controllers share ID {id} at {baud} bps: connect one at a time, then give each an ID (nurimc --id {id2} set id N, a different N for each); nothing was written",
+    "two or more controllers share ID {id} at {baud} bps: connect one at a time, then give each an ID (nurimc --id {id2} set id N, a different N for each)",
+    "expected {expected} controller(s), found {n}",
+    "ID {id} already answers at {rate} bps: moving ID {id2} there would make two controllers share it; nothing was written (give one of them another ID first: nurimc --baud {rate2} --id {id3} set id N)",
+    "ID {id} already answers at {rate} bps: after the reset two controllers would share ID 0; nothing was sent. Give that controller another ID first (nurimc --baud 9600 --id 0 set id N) or disconnect it; to reset anyway: allow_shared=True (CLI: --allow-shared-id)",
     "unknown product line {value}; lines: {lines}",
     "unknown product {value}; products: {products}",
     "--product: {value} is not a product; use one of {choices}",
@@ -58,6 +89,15 @@ PATTERNS: tuple[str, ...] = (
     "looking for controllers at {baud} bps",
     "no --ids: looking for controllers at {baud} bps...",
     "ready: recording {topic} and {frames} to {path} (Ctrl-C ends)",
+    "ready: recording {topic} and {frames} to {path} (ends after {seconds} s, or Ctrl-C)",
+    "motors (joint names): {motors}; controller IDs in the frames: {ids}",
+    "wrote {file}: {rows} samples of {joints} joint(s)",
+    "{path}: {n} messages over {seconds} s",
+    "{path}: not an MCAP file (it does not start with the MCAP magic)",
+    "{path}: not a readable MCAP file ({error}); try nurimc repair-mcap {path2}",
+    "{path}: no {schema} samples to export",
+    "{path}: no {schema} samples on {topic} to export",
+    "reading MCAP needs the mcap package: pip install mcap",
     "wrote {target}: {n} messages kept; {torn} stopped at {problem}",
     "wrote {path}: {n} frames from {source}",
     "wrote {path}: {counts}",
@@ -213,6 +253,7 @@ PATTERNS: tuple[str, ...] = (
     "cannot write {path}: {reason}",
     "{path}: {reason}",
     "{first}; {rest}",
+    "{n} controller(s) found, and {shared} ID(s) shared by two or more controllers",
     "{n} controller(s) found",
     "{n} controller(s) found (interrupted)",
     "{where}: {n} found",
@@ -277,6 +318,12 @@ MESSAGES: tuple[str, ...] = (
     "not back yet",
     "--token must be at least 16 characters (e.g. `python3 -c 'import secrets; print(secrets.token_urlsafe())'`)",
     "no controllers: give --ids or --motor",
+    "no controller answered. Check, in this order:",
+    "  1. power: the controller's supply is on (its LED lights)",
+    "  2. wiring: A to A, B to B (swap them if unsure) and a common ground between adapter and controller",
+    "  3. port: the adapter's device (ls /dev/ttyUSB* /dev/ttyACM*) is the --port given",
+    "  4. termination: a 120 ohm resistor at each end of a long bus",
+    "then scan again; nurimc scan --expect N exits 1 when fewer than N controllers answer",
     "a simulated RS485 bus with 3 controllers at rates the host does not know.",
     "live state",
     "target °",
@@ -329,6 +376,9 @@ MESSAGES: tuple[str, ...] = (
     "error",
     "change",
     "t (s)",
+    "topic",
+    "schema",
+    "messages",
     "dir",
     "frame",
     "error:",

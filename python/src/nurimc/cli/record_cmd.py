@@ -98,7 +98,10 @@ def record(
             fail(str(error))
         procedures = [bus.motor(i, o.product if o.product_given else None).procedures for i in motor_list]
         out.print(
-            tr(f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} (Ctrl-C ends)"),
+            tr(
+                f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} "
+                + (f"(ends after {seconds:g} s, or Ctrl-C)" if seconds else "(Ctrl-C ends)")
+            ),
             soft_wrap=True,
             markup=False,
         )

@@ -204,7 +204,15 @@ def restore_journal(o: Options, ids: list[int], file: str) -> RestoreJournal:
     return journal
 
 
-def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", help="Do not ask.")) -> None:
+def factory_reset(
+    ctx: typer.Context,
+    yes: bool = typer.Option(False, "--yes", help="Do not ask."),
+    allow_shared_id: bool = typer.Option(
+        False,
+        "--allow-shared-id",
+        help="Reset even when another controller already answers as ID 0 at 9600 bps (the two then share ID 0).",
+    ),
+) -> None:
     """Erase every setting of one controller: it returns as ID 0 at 9600 bps.
 
     Example: nurimc --port /dev/ttyUSB0 --id 3 factory-reset --yes
@@ -222,7 +230,7 @@ def factory_reset(ctx: typer.Context, yes: bool = typer.Option(False, "--yes", h
             raise typer.Exit(EXIT_OK)
     with open_bus(o) as bus:
         motor_for(bus, o, device_id)  # its product line: factory reset is 10 on MC, 0D on RSA, 09 on SM
-        bus.run(config.factory_reset(bus.core, device_id, confirm=True))
+        bus.run(config.factory_reset(bus.core, device_id, confirm=True, allow_shared=allow_shared_id))
     emit(
         o,
         {"id": device_id, "reset": True, "now": {"id": 0, "baud": 9600}},

@@ -12,6 +12,8 @@ from typing import Annotated, Any
 import typer
 
 from ..cli.i18n import tr
+from .background import detach
+from .background import ready as background_ready
 from .bus import SimBus, describe
 from .faults import FaultConfig
 from .options import OptionError, check_baud, parse_ids, parse_motor
@@ -84,14 +86,24 @@ def sim(
     seed: Annotated[int, typer.Option(help="Seed of the fault generator (same seed, same faults).")] = 0,
     eeprom_ms: Annotated[float, typer.Option(help="How long a settings write keeps a controller busy.")] = 50.0,
     verbose: Annotated[bool, typer.Option("-v", "--verbose", help="Log every frame received and sent.")] = False,
+    background: Annotated[
+        bool,
+        typer.Option(
+            "--background", help="Wait until the bus is served, print the ready lines, then run on in the background."
+        ),
+    ] = False,
 ) -> None:
     """Simulated controllers (MC, BLMC-H, RSA, RSAVW, SA, SM) on a simulated RS485 bus, on a pseudo-terminal and/or TCP.
 
     Example: nurimc sim --link /tmp/nurimc0 --ids 1,2 --motor 3@57600 --wire-timing
 
+    In a script or the quick start: nurimc sim --link /tmp/nurimc0 --ids 1,2 --background
+
     Mixed product lines, each at its own rate:
     nurimc sim --link /tmp/nurimc0 --motor 1@9600:mc --motor 7@57600:rsa --motor 9@115200:sm
     """
+    if background:
+        detach()  # the parent returns from here only through sys.exit, once the child is ready
     logging.basicConfig(
         level=logging.DEBUG if verbose else logging.WARNING,
         format="%(asctime)s.%(msecs)03d %(message)s",
@@ -242,6 +254,7 @@ def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, 
     for where in ready:
         print(f"ready: {where}")
     sys.stdout.flush()
+    background_ready()  # --background: the parent returns now
     while not stop.wait(0.5):
         pass
     for s in servers:

@@ -63,7 +63,7 @@ export default {
   "motors.discover": "Discover motors",
   "motors.rates": "rates",
   "motors.allRates": "all {n}",
-  "motors.rateOnly": "{rate} only",
+  "motors.rateOnly": "{rate} bps only",
   "motors.scanning": "scanning…",
   "motors.found": "found {n} motor(s): {list}",
   "motors.none": "none",
@@ -373,7 +373,7 @@ export default {
     "stop pending: port lost — the emergency stop is latched (since {time}); control off is the first frame sent when the port returns.",
   "estop.pendingUntil": "If the motors must stop now, cut their power.",
   "estop.doneLatched":
-    "STOPPED after the port returned (latched emergency stop, {time}): control off sent at {rates} bps and read back off for every motor.",
+    "STOPPED after the port returned (latched E-STOP, {time}): control off sent at {rates} bps, read back off on every motor.",
   "port.lost": "port lost: {port} — reconnecting (down {s} s)",
   "port.back": "port back: {port} after {s} s — reading every motor again",
   "port.reopen": "Reopen now",
@@ -383,8 +383,7 @@ export default {
   "port.turningStopped": "stopped when the port returned (they were turning by Run): {list}; press Run again to go on",
   "port.notReadAgain": "ID {id} not read after the port returned",
   "port.opened": "opened {port}: discover the motors on it",
-  "port.closed":
-    "the console stopped with port {port} lost: the emergency stop was never carried out; cut the motors' power",
+  "port.closed": "console ended with port {port} lost: E-STOP not sent; cut the motors' power",
   "setup.lost": "port lost: {port}. Open tries it again at once; or type another path and Open",
   "setup.path": "or path",
   "setup.pathPlaceholder": "a path not in the list",
