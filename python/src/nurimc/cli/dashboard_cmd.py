@@ -20,6 +20,11 @@ def dashboard(
         None, "--token", envvar="NURIMC_DASHBOARD_TOKEN", help="Secret the page must present; required off loopback."
     ),
     allow_host: list[str] = typer.Option([], "--allow-host", help="Another name this server is reached by."),
+    allow_any_port: bool = typer.Option(
+        False,
+        "--allow-any-port",
+        help="Let the page open any port URL (spy://, socket://, sim://?state=...): files and network as this user.",
+    ),
 ) -> None:
     """Serve the web console: discover, plot, drive, tune, back up; emergency stop.
 
@@ -43,7 +48,7 @@ def dashboard(
         fail(MISSING_ASSETS, EXIT_USAGE)
     try:
         address = parse_listen(listen)
-        policy = SecurityPolicy.build(address, token, tuple(allow_host))
+        policy = SecurityPolicy.build(address, token, tuple(allow_host), any_port=allow_any_port)
     except ListenError as error:
         fail(str(error), EXIT_USAGE)
     tap = FrameTap()
@@ -64,7 +69,7 @@ def dashboard(
         sock.bind((address.host, address.port))
     except OSError as error:
         fail(f"cannot listen on {listen}: {error.strerror}; pick another --listen HOST:PORT", EXIT_USAGE)
-    sock.listen(64)
+    sock.listen(1024)  # a flood of connections does not keep a new page's out of the queue
     port = sock.getsockname()[1]
     shown = f"[{address.host}]" if family == socket.AF_INET6 else address.host
     url = f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
@@ -75,7 +80,11 @@ def dashboard(
     config = DashboardConfig(
         bus=bus, tap=tap, policy=policy, product=o.product, sim=sim, port=port_name, on_ready=ready
     )
-    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **uvicorn_options()))
+    from ..dashboard.connlimits import ConnectionLimits, server_options
+
+    limits = ConnectionLimits.for_this_process()  # raises the descriptor limit too
+    options_ = {**uvicorn_options(), **server_options(limits)}
+    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **options_))
     outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each
     try:
         server.run(sockets=[sock])
