@@ -88,6 +88,7 @@ def record(
             recorder.close()
         raise
     stop = threading.Event()
+    recorder.on_failure = lambda _why: stop.set()  # disk full: the recording ends at once (recorder.failed)
     port_error: list[str] = []
     try:
         motor_list = motor_ids(o, ids, bus)
@@ -139,6 +140,8 @@ def record(
     finally:
         bus.close()
         recorder.close()
+    if recorder.failed:  # the disk (full, gone): one line, exit 1
+        fail(f"the recording stopped: {recorder.failed}", EXIT_DEVICE)
     counts = ", ".join(tr(f"{n} on {t}") for t, n in sorted(recorder.counts.items()))
     out.print(tr(f"wrote {mcap_path}: {counts or tr('no messages')}"), soft_wrap=True, markup=False)
     if port_error:
