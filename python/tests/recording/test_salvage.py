@@ -137,3 +137,20 @@ def test_not_an_mcap_file(tmp_path: Path) -> None:
     junk.write_bytes(b"hello" * 100)
     with pytest.raises(ValueError, match="is not an MCAP file"):
         repair(junk, tmp_path / "out.mcap")
+
+
+def test_repair_mcap_of_a_chunk_bomb_is_one_line_and_exit_1(tmp_path: Path, bomb_payload: bytes) -> None:
+    import subprocess
+
+    from .test_crash import ENV
+    from .test_mcap import NURIMC
+
+    source = tmp_path / "bomb.mcap"
+    source.write_bytes(MAGIC + header_record() + chunk_record(bomb_payload, 1 << 20))
+    done = subprocess.run(
+        [NURIMC, "repair-mcap", str(source), "--out", str(tmp_path / "out.mcap")],
+        capture_output=True, text=True, timeout=60, env=ENV,
+    )  # fmt: skip
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert done.returncode == 1 and len(lines) == 1 and "nothing kept from" in lines[0], done.stderr
+    assert "decompresses to other than its declared" in lines[0] and not done.stdout.strip()

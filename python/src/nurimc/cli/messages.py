@@ -62,6 +62,7 @@ PATTERNS: tuple[str, ...] = (
     "ready: recording {topic} and {frames} to {path} (Ctrl-C ends)",
     "wrote {target}: {n} messages kept; {torn} stopped at {problem}",
     "wrote {target}: {n} messages kept; skipped in {torn}: {problem}",
+    "nothing kept from {torn}: {problem}",
     "a record cut short at byte {at} after {n} messages",
     "the end without its footer after {n} messages",
     "wrote {path}: {n} frames from {source}",

@@ -173,6 +173,8 @@ def repair_mcap(
     if result.complete:
         complete = f"{torn} was complete; copied {result.messages} messages to {target}"
         out.print(tr(complete), soft_wrap=True, markup=False)
+    elif result.lost and not result.messages:  # nothing whole in it (a chunk bomb, all chunks broken)
+        fail(f"nothing kept from {torn}: {result.problem}", EXIT_DEVICE)
     elif result.lost:  # broken chunks skipped, the rest kept (recording/salvage.py)
         out.print(
             tr(f"wrote {target}: {result.messages} messages kept; skipped in {torn}: {result.problem}"),
