@@ -243,3 +243,28 @@ def test_oversized_headers_are_refused() -> None:
             assert answer.startswith(b"HTTP/1.1 4"), answer
     finally:
         s.close()
+
+
+def test_out_of_descriptors_is_one_line_a_minute(capsys: pytest.CaptureFixture[str]) -> None:
+    import errno
+
+    from nurimc.dashboard.connlimits import EMFILE_LOG_EVERY, quiet_emfile
+
+    loop = asyncio.new_event_loop()
+    now = [0.0]
+    seen: list[dict[str, Any]] = []
+    loop.set_exception_handler(lambda _loop, context: seen.append(context))
+    try:
+        quiet_emfile(loop, now=lambda: now[0])
+        emfile = {"message": "socket.accept() out of system resource", "exception": OSError(errno.EMFILE, "Too many")}
+        for second in range(120):  # asyncio retries accept() every second
+            now[0] = float(second)
+            loop.call_exception_handler(emfile)
+        other = {"message": "something else", "exception": ValueError("x")}
+        loop.call_exception_handler(other)
+    finally:
+        loop.close()
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 120 // int(EMFILE_LOG_EVERY) and all("out of file descriptors" in line for line in lines)
+    assert "Traceback" not in "".join(lines)
+    assert seen == [other]  # anything else goes to the handler that was there
