@@ -59,7 +59,8 @@ typedef enum nurimc_status {
     NURIMC_E_TIMEOUT,         /**< host layer: no answer before the deadline */
     NURIMC_E_BAUD,            /**< host layer: not one of the 18 protocol baud rates */
     NURIMC_E_NOT_FINITE,      /**< units: the value is NaN or infinite */
-    NURIMC_E_FRACTION         /**< units: a fraction where a whole number is needed */
+    NURIMC_E_FRACTION,        /**< units: a fraction where a whole number is needed */
+    NURIMC_E_BUSY             /**< host layer: another program holds the port (flock / TIOCEXCL) */
 } nurimc_status;
 
 /** Message kinds: commands are never answered; requests are answered with mode + 0x30. */

@@ -29,7 +29,9 @@ typedef struct nurimc_port {
     uint32_t baud; /**< the rate the port is set to */
 } nurimc_port;
 
-/** Open `path` raw 8N1 at `baud` (one of nurimc_baud_rates, else NURIMC_E_BAUD). */
+/** Open `path` raw 8N1 at `baud` (one of nurimc_baud_rates, else NURIMC_E_BAUD), locked for
+ * this program: NURIMC_E_BUSY (errno EBUSY) if another program holds it (flock, as the Python
+ * library takes it, or TIOCEXCL); while open, other programs' opens of it fail. */
 nurimc_status nurimc_port_open(nurimc_port *port, const char *path, uint32_t baud);
 /** Change the rate of an open port. */
 nurimc_status nurimc_port_set_baud(nurimc_port *port, uint32_t baud);

@@ -60,6 +60,7 @@ int nurimc_baud_index(uint32_t baud) {
 static const char *const status_names[] = {
     "ok",    "header", "truncated", "trailing", "checksum", "unknown_mode", "size",       "unknown_message",
     "range", "buffer", "argument",  "io",       "timeout",  "baud",         "not_finite", "fraction",
+    "busy",
 };
 
 static const char *const status_texts[] = {
@@ -79,6 +80,7 @@ static const char *const status_texts[] = {
     "not one of the protocol's 18 baud rates",
     "value is not a finite number",
     "a whole number is needed",
+    "the port is in use by another program: close that program first",
 };
 
 const char *nurimc_status_name(nurimc_status status) {

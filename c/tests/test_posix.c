@@ -70,6 +70,26 @@ static void test_open_errors(void) {
     close(master);
 }
 
+/* One program per port: a second open (another program, or this one again) is refused with
+ * NURIMC_E_BUSY while the first holds it, and succeeds once it is closed. */
+static void test_port_is_locked(void) {
+    nurimc_port first, second;
+    char path[128];
+    int master = open_master(path, sizeof path);
+    CHECK(master >= 0);
+    CHECK_EQ(nurimc_port_open(&first, path, 9600), NURIMC_OK);
+    errno = 0;
+    CHECK_EQ(nurimc_port_open(&second, path, 9600), NURIMC_E_BUSY);
+    CHECK_EQ(errno, EBUSY);
+    CHECK_EQ(second.fd, -1);
+    CHECK(strstr(nurimc_status_text(NURIMC_E_BUSY), "another program") != NULL);
+    CHECK(strcmp(nurimc_status_name(NURIMC_E_BUSY), "busy") == 0);
+    nurimc_port_close(&first);
+    CHECK_EQ(nurimc_port_open(&second, path, 9600), NURIMC_OK);
+    nurimc_port_close(&second);
+    close(master);
+}
+
 static void test_timeout_formula(void) {
     nurimc_bus bus;
     memset(&bus, 0, sizeof bus);
@@ -341,6 +361,7 @@ static void test_settings_map(void) {
 int main(void) {
     test_every_rate();
     test_open_errors();
+    test_port_is_locked();
     test_timeout_formula();
     test_request_answer();
     test_timeout_and_misuse();

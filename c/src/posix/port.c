@@ -5,6 +5,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
@@ -88,6 +89,23 @@ nurimc_status nurimc_port_set_baud(nurimc_port *port, uint32_t baud) {
     return status;
 }
 
+/* One program per port, as the Python transport (pyserial's exclusive=True: flock) does: an
+ * advisory lock every nurimc program takes, and TIOCEXCL so that other programs' opens fail
+ * with EBUSY while we hold it (root is not stopped by TIOCEXCL; the flock still tells). */
+static nurimc_status lock_port(int fd) {
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        if (errno == EWOULDBLOCK || errno == EAGAIN) {
+            errno = EBUSY;
+            return NURIMC_E_BUSY;
+        }
+        if (errno != ENOLCK && errno != EINVAL && errno != ENOTSUP) return NURIMC_E_IO;
+    }
+#ifdef TIOCEXCL
+    (void)ioctl(fd, TIOCEXCL); /* best effort: not every device is a tty */
+#endif
+    return NURIMC_OK;
+}
+
 nurimc_status nurimc_port_open(nurimc_port *port, const char *path, uint32_t baud) {
     nurimc_status status;
     if (port == NULL || path == NULL) return NURIMC_E_ARGUMENT;
@@ -95,8 +113,9 @@ nurimc_status nurimc_port_open(nurimc_port *port, const char *path, uint32_t bau
     port->baud = 0;
     if (nurimc_baud_index(baud) < 0) return NURIMC_E_BAUD;
     port->fd = open(path, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-    if (port->fd < 0) return NURIMC_E_IO;
-    status = nurimc_port_set_baud(port, baud);
+    if (port->fd < 0) return errno == EBUSY ? NURIMC_E_BUSY : NURIMC_E_IO; /* EBUSY: TIOCEXCL of another */
+    status = lock_port(port->fd);
+    if (status == NURIMC_OK) status = nurimc_port_set_baud(port, baud);
     if (status != NURIMC_OK) {
         int saved = errno;
         nurimc_port_close(port);
@@ -107,6 +126,9 @@ nurimc_status nurimc_port_open(nurimc_port *port, const char *path, uint32_t bau
 
 void nurimc_port_close(nurimc_port *port) {
     if (port != NULL && port->fd >= 0) {
+#ifdef TIOCNXCL
+        (void)ioctl(port->fd, TIOCNXCL); /* the next program may open it */
+#endif
         close(port->fd);
         port->fd = -1;
     }

@@ -211,7 +211,68 @@ def backup(motors: Sequence[MotorProcedures]) -> Procedure[dict[str, Any]]:
     }
 
 
-def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Procedure[list[str]]:
+class LineMismatch(InputError):
+    """A backup of one product line restored onto a controller of another: refused before any write."""
+
+
+def same_line(a: str, b: str) -> bool:
+    """Two line keys that hold the same settings: equal, SA and RSA (the rule names an SA "rsa"),
+    or the SM tables (the rule names them all "sm")."""
+    return a == b or {a, b} <= {"rsa", "sa"} or (a.startswith("sm") and b.startswith("sm"))
+
+
+def restore_check(motors: Sequence[MotorProcedures], document: dict[str, Any], force_line: bool = False) -> list[str]:
+    """Everything a restore checks before its first write (docs/cli.md, "Restore is a transaction"):
+    each backup motor's product line against the controller's line (LineMismatch unless
+    `force_line`), and every value against the range its field has in the controller's line
+    (InputError naming ID, setting, value and range). Returns one line per forced mismatch."""
+    from .products import line_of_product
+
+    document = backup_file.check(document)
+    by_id = {m.id: m for m in motors}
+    mismatches: list[str] = []
+    problems: list[str] = []
+    for entry in document["motors"]:
+        motor = by_id.get(entry["id"])
+        if motor is None:
+            raise ValueError(f"the backup has ID {entry['id']}, which is not among the motors to restore")
+        saved_line = line_of_product(entry.get("product") or "mc")
+        if not same_line(saved_line, motor.line.key):
+            mismatches.append(
+                f"ID {motor.id}: the backup is of {entry.get('product', 'mc')} ({saved_line} line), "
+                f"the controller is {motor.line.title} ({motor.line.key} line)"
+            )
+        problems += _out_of_range(motor, entry["settings"])
+    if mismatches and not force_line:
+        raise LineMismatch(
+            f"{'; '.join(mismatches)}: refused before any write (the same bytes are other settings in another "
+            "line); to write the backup's settings by name anyway, each checked against the controller's "
+            "line, give --force-line"
+        )
+    if problems:
+        raise InputError(f"{'; '.join(problems)}: nothing was written")
+    return mismatches
+
+
+def _out_of_range(motor: MotorProcedures, saved: dict[str, Any]) -> list[str]:
+    problems = []
+    for name, value in saved.items():
+        s = SETTINGS.get(name)
+        if s is None or s.command is None or name == "control" or not motor.line.has(s.command):
+            continue
+        target = next((f for f in motor.line.message_class(s.command).SPEC.fields if f.name == s.field), None)
+        if target is None or target.scale != s.spec.scale or target.unit != s.spec.unit:
+            problems.append(f"ID {motor.id} {name}: {motor.line.title} holds it otherwise (field, unit or scale)")
+            continue
+        wire = s.to_wire(value)
+        if not target.min <= wire <= target.max:
+            problems.append(f"ID {motor.id} {name}: {value} is outside {target.describe_range()} on {motor.line.title}")
+    return problems
+
+
+def restore(
+    motors: Sequence[MotorProcedures], document: dict[str, Any], force_line: bool = False
+) -> Procedure[list[str]]:
     """Write back every setting that differs (each write verified); returns what was changed.
 
     The document is checked whole first (BackupError naming the motor and field): nothing is
@@ -219,15 +280,15 @@ def restore(motors: Sequence[MotorProcedures], document: dict[str, Any]) -> Proc
     (two that agree), and settings written by one command (the gains) are written together with
     the backup's values, never with values read: noise cannot be written back (docs/library.md,
     Verified writes). Running it again after an interruption completes it (only what still
-    differs is written)."""
+    differs is written). Before the first write, `restore_check`: a backup of another product
+    line is refused (LineMismatch) unless `force_line`, and every value is checked against the
+    range of the controller's line."""
     document = backup_file.check(document)
+    restore_check(motors, document, force_line)  # the line and every value, before the first write
     by_id = {m.id: m for m in motors}
     changed: list[str] = []
     for entry in document["motors"]:
-        motor = by_id.get(entry["id"])
-        if motor is None:
-            raise ValueError(f"the backup has ID {entry['id']}, which is not among the motors to restore")
-        changed += yield from _restore_motor(motor, entry["settings"])
+        changed += yield from _restore_motor(by_id[entry["id"]], entry["settings"])
     return changed
 
 

@@ -21,8 +21,11 @@ import configparser
 import itertools
 import re
 import zipfile
+from collections import deque
+from collections.abc import Iterator
 from pathlib import Path
 
+from .budgets import MIB, ReadBudget, default_budget
 from .errors import InputError
 from .protocol import BAUD_RATES, BY_MODE, StreamParser
 
@@ -31,20 +34,30 @@ HOST_KINDS = ("command", "request")
 _MAX_SIZE = max(cls.SPEC.size for cls in BY_MODE.values())
 _LOG_LINE = re.compile(rb'\{"t": ([0-9.e+-]+), "dir": "(tx|rx)", "hex": "((?:[0-9a-f]{2})+)"\}\n')
 _UNITS = {"": 1, "k": 1_000, "m": 1_000_000, "g": 1_000_000_000}
+GUESS_RUNS = 200_000  # pulses looked at to guess the baud rate (the first ones: plenty)
+READ_BLOCK = 1 << 20
 
 
-def read_capture(path: str | Path, baud: int | None = None) -> list[Entry] | None:
-    """Entries of a sigrok capture or of the decoder's frames output; None for a traffic log."""
+def read_capture(path: str | Path, baud: int | None = None, budget: ReadBudget | None = None) -> list[Entry] | None:
+    """Entries of a sigrok capture or of the decoder's frames output; None for a traffic log.
+    Bounded by `budget` (nurimc.budgets: samples, edges, probes, records); InputError, one line."""
+    budget = budget or default_budget()
     try:
         with open(path, "rb") as file:
             head = file.read(4)
     except OSError as error:
         raise InputError(f"{path}: {error.strerror or error}") from None
     if head.startswith(b"PK\x03\x04"):
-        return read_session(path, baud)
+        return read_session(path, baud, budget)
     if head.startswith(b"\xff\xfe") and len(head) == 4 and 2 <= head[3] <= _MAX_SIZE:  # not a UTF-16 mark
-        data = Path(path).read_bytes()
+        limit = budget.samples * MIB
+        with open(path, "rb") as file:
+            data = file.read(limit + 1)
+        if len(data) > limit:
+            raise budget.over(f"{path}: decoder output", budget.samples, " MiB")
         lines = _LOG_LINE.findall(data)
+        if len(lines) > budget.records:
+            raise budget.over(f"{path}: frames", budget.records)
         if lines:  # `-B nurimc` without a class: each frame's bytes, then its log line
             return [(float(t), way.decode(), bytes.fromhex(text.decode())) for t, way, text in lines]
         return read_frames(data, str(path))
@@ -92,14 +105,39 @@ def read_frames(data: bytes, where: str) -> list[Entry]:
 
 
 def _samplerate(text: str, where: str) -> int:
-    match = re.fullmatch(r"\s*([0-9.]+)\s*([kKmMgG]?)\s*Hz\s*", text)
-    if match is None:
-        raise InputError(f"{where}: samplerate {text!r} is not a rate such as '1 MHz'")
-    return round(float(match.group(1)) * _UNITS[match.group(2).lower()])
+    match = re.fullmatch(r"\s*([0-9]+(?:\.[0-9]*)?)\s*([kKmMgG]?)\s*Hz\s*", text)
+    rate = round(float(match.group(1)) * _UNITS[match.group(2).lower()]) if match else 0
+    if not 1 <= rate <= 100_000_000_000:
+        raise InputError(f"{where}: samplerate {text[:40]!r} is not a rate such as '1 MHz'")
+    return rate
 
 
-def read_session(path: str | Path, baud: int | None = None) -> list[Entry]:
+def _whole(section: configparser.SectionProxy, name: str, default: int, top: int, where: str) -> int:
+    text = section.get(name, str(default))
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 1 <= value <= top:
+        raise InputError(f"{where}: metadata {name} {text[:40]!r} is not a whole number 1..{top}")
+    return value
+
+
+def _read_parts(archive: zipfile.ZipFile, parts: list[str], limit: int, where: str, budget: ReadBudget) -> bytes:
+    """The sample files, decompressed a block at a time: a zip bomb stops at the limit."""
+    out = bytearray()
+    for name in parts:
+        with archive.open(name) as member:
+            while block := member.read(READ_BLOCK):
+                out += block
+                if len(out) > limit:
+                    raise budget.over(f"{where}: decompressed samples", budget.samples, " MiB")
+    return bytes(out)
+
+
+def read_session(path: str | Path, baud: int | None = None, budget: ReadBudget | None = None) -> list[Entry]:
     """Every frame on every toggling channel of a sigrok session file, in time order."""
+    budget = budget or default_budget()
     where = str(path)
     try:
         with zipfile.ZipFile(path) as archive:
@@ -117,21 +155,35 @@ def read_session(path: str | Path, baud: int | None = None) -> list[Entry]:
                 (n for n in names if re.fullmatch(re.escape(prefix) + r"-\d+", n)),
                 key=lambda n: int(n.rsplit("-", 1)[1]),
             )
-            samples = b"".join(archive.read(n) for n in parts)
-    except (zipfile.BadZipFile, configparser.Error, OSError, UnicodeError) as error:
-        raise InputError(f"{where}: not a readable sigrok session file ({error})") from None
-    rate = _samplerate(section.get("samplerate", ""), where)
-    unitsize = section.getint("unitsize", 1)
-    probes = section.getint("total probes", 0)
-    if not samples or rate <= 0 or unitsize < 1 or probes < 1:
+            rate = _samplerate(section.get("samplerate", ""), where)
+            probes = _whole(section, "total probes", 0, budget.probes, where)
+            unitsize = _whole(section, "unitsize", 1, (budget.probes + 7) // 8, where)
+            samples = _read_parts(archive, parts, budget.samples * MIB, where, budget)
+    except InputError:
+        raise
+    except (zipfile.BadZipFile, configparser.Error, OSError, UnicodeError, EOFError, ValueError) as error:
+        why = str(error).splitlines()[0][:200] if str(error) else type(error).__name__
+        raise InputError(f"{where}: not a readable sigrok session file ({why})") from None
+    if not samples:
         raise InputError(f"{where}: no logic samples (samplerate, unitsize and probes are needed)")
-    entries: list[Entry] = []
+    lines: list[tuple[int, bytes]] = []
+    edges = 0
     for channel in range(min(probes, 8 * unitsize)):
         levels = _channel(samples, unitsize, channel)
         if levels.find(b"\x00") < 0 or levels.find(b"\x01") < 0:
             continue  # a line that never toggles carries no bytes
+        edges += levels.count(b"\x00\x01") + levels.count(b"\x01\x00")
+        if edges > budget.edges:  # counted at C speed before any decoding in Python
+            raise budget.over(f"{where}: signal edges", budget.edges)
+        lines.append((channel, levels))
+    del samples
+    entries: list[Entry] = []
+    while lines:
+        _, levels = lines.pop(0)
         bit = rate / (baud or _guess_baud(levels, rate))
         entries += _frames(_uart_bytes(levels, bit), rate)
+        if len(entries) > budget.records:
+            raise budget.over(f"{where}: frames", budget.records)
     entries.sort(key=lambda e: e[0])
     return entries
 
@@ -143,10 +195,11 @@ def _channel(samples: bytes, unitsize: int, channel: int) -> bytes:
     return samples[channel // 8 :: unitsize].translate(table)
 
 
-def _runs(levels: bytes) -> list[int]:
-    """Lengths of the runs of equal level between edges (the first and last are left out)."""
-    edges, pos, want = [], levels.find(b"\x00"), b"\x01"
-    while pos >= 0:
+def _runs(levels: bytes, most: int = GUESS_RUNS) -> list[int]:
+    """Lengths of the first `most` runs of equal level between edges (the first and last are left out)."""
+    edges: list[int] = []
+    pos, want = levels.find(b"\x00"), b"\x01"
+    while pos >= 0 and len(edges) <= most:
         edges.append(pos)
         pos = levels.find(want, pos)
         want = b"\x00" if want == b"\x01" else b"\x01"
@@ -173,10 +226,9 @@ def _guess_baud(levels: bytes, rate: int) -> int:
     return best
 
 
-def _uart_bytes(levels: bytes, bit: float) -> list[tuple[int, int]]:
+def _uart_bytes(levels: bytes, bit: float) -> Iterator[tuple[int, int]]:
     """(first sample of the start bit, byte) of every 8N1 frame: sampled mid-bit, idle high; a
     start bit that is high at mid-bit (a glitch) or a low stop bit (framing error) is no byte."""
-    out: list[tuple[int, int]] = []
     n = len(levels)
     pos = levels.find(b"\x01")  # a line starts idle: wait for high first
     while pos >= 0:
@@ -191,19 +243,21 @@ def _uart_bytes(levels: bytes, bit: float) -> list[tuple[int, int]]:
             value |= levels[int(start + (1.5 + k) * bit)] << k
         stop = int(start + 9.5 * bit)
         if levels[stop] == 1:
-            out.append((start, value))
+            yield start, value
         pos = levels.find(b"\x01", stop)
-    return out
 
 
-def _frames(received: list[tuple[int, int]], rate: int) -> list[Entry]:
-    """Frames in one line's bytes by the stream parser, each with its first byte's time."""
+def _frames(received: Iterator[tuple[int, int]], rate: int) -> list[Entry]:
+    """Frames in one line's bytes by the stream parser, each with its first byte's time (only the
+    last frame's worth of bytes is kept: memory does not grow with the capture)."""
     parser = StreamParser()
-    data = bytes(value for _, value in received)
+    recent: deque[tuple[int, int]] = deque(maxlen=_MAX_SIZE + 4)
     entries: list[Entry] = []
-    for index in range(len(data)):
-        for message in parser.feed(data[index : index + 1]):
+    for start, value in received:
+        recent.append((start, value))
+        for message in parser.feed(bytes((value,))):
             length = message.SPEC.size + 4
-            frame = data[index + 1 - length : index + 1]
-            entries.append((round(received[index + 1 - length][0] / rate, 6), direction(frame), frame))
+            tail = list(recent)[-length:]
+            frame = bytes(v for _, v in tail)
+            entries.append((round(tail[0][0] / rate, 6), direction(frame), frame))
     return entries

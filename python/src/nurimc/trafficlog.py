@@ -4,6 +4,7 @@ the MCAP converter and the logic-analyzer import (nurimc.sigrok)."""
 
 from __future__ import annotations
 
+from .budgets import ReadBudget, default_budget
 from .errors import InputError
 from .inputs import json_document, number, show
 
@@ -11,9 +12,11 @@ from .inputs import json_document, number, show
 LOG_LINE_LIMIT = 1 << 20
 
 
-def read_traffic_log(path: str) -> list[tuple[float, str, bytes]]:
+def read_traffic_log(path: str, budget: ReadBudget | None = None) -> list[tuple[float, str, bytes]]:
     """Every line of a traffic log as (t, dir, bytes); InputError naming file, line and field if
-    a line is not one a traffic log holds ({"t": seconds, "dir": "tx"|"rx", "hex": "..."})."""
+    a line is not one a traffic log holds ({"t": seconds, "dir": "tx"|"rx", "hex": "..."}), or
+    if it holds more than the budget's records (nurimc.budgets)."""
+    budget = budget or default_budget()
     lines: list[tuple[float, str, bytes]] = []
     with open(path, "rb") as file:
         for number_, raw in enumerate(iter(lambda: file.readline(LOG_LINE_LIMIT + 1), b""), 1):
@@ -22,6 +25,8 @@ def read_traffic_log(path: str) -> list[tuple[float, str, bytes]]:
                 raise InputError(f"{where}: longer than {LOG_LINE_LIMIT} bytes; not a traffic log line")
             if not raw.strip():
                 continue
+            if len(lines) >= budget.records:
+                raise budget.over(f"{path}: lines", budget.records)
             entry = json_document(raw, where, "a traffic log line")
             if not isinstance(entry, dict):
                 raise InputError(f"{where}: {show(entry)} is not a JSON object with t, dir and hex")

@@ -41,7 +41,8 @@ def console(tmp_path: Path) -> Iterator[Console]:
     with cuttable_bus("tcp", tmp_path, ids=(1, 2)) as (sim, proxy):
         tap = FrameTap()
         bus = Bus.open(proxy.url, BAUD, reconnect=True, tracer=tap, latency=LATENCY)
-        policy = SecurityPolicy.build(parse_listen(LOCAL), None)
+        # the proxy is a socket:// URL: reopening it from the page needs `--allow-any-port`
+        policy = SecurityPolicy.build(parse_listen(LOCAL), None, any_port=True)
         config = DashboardConfig(bus, tap, policy, port=proxy.url)
         with TestClient(create_app(config), base_url=f"http://{LOCAL}") as client:
             yield Console(client, proxy, sim)

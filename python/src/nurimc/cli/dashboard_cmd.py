@@ -21,6 +21,11 @@ def dashboard(
         None, "--token", envvar="NURIMC_DASHBOARD_TOKEN", help="Secret the page must present; required off loopback."
     ),
     allow_host: list[str] = typer.Option([], "--allow-host", help="Another name this server is reached by."),
+    allow_any_port: bool = typer.Option(
+        False,
+        "--allow-any-port",
+        help="Let the page open any port URL (spy://, socket://, sim://?state=...): files and network as this user.",
+    ),
 ) -> None:
     """Serve the web console: discover, plot, drive, tune, back up; emergency stop.
 
@@ -44,7 +49,7 @@ def dashboard(
         fail(MISSING_ASSETS, EXIT_USAGE)
     try:
         address = parse_listen(listen)
-        policy = SecurityPolicy.build(address, token, tuple(allow_host))
+        policy = SecurityPolicy.build(address, token, tuple(allow_host), any_port=allow_any_port)
     except ListenError as error:
         fail(str(error), EXIT_USAGE)
     tap = FrameTap()
@@ -66,7 +71,7 @@ def dashboard(
         sock.bind((address.host, address.port))
     except OSError as error:
         fail(f"cannot listen on {listen}: {error.strerror}; pick another --listen HOST:PORT", EXIT_USAGE)
-    sock.listen(64)
+    sock.listen(1024)  # a flood of connections does not keep a new page's out of the queue
     port = sock.getsockname()[1]
     shown = f"[{address.host}]" if family == socket.AF_INET6 else address.host
     url = f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
@@ -79,7 +84,11 @@ def dashboard(
     )
     if holding is not None:
         config.on_worker = lambda worker: share_with_pages(holding, worker)
-    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **uvicorn_options()))
+    from ..dashboard.connlimits import ConnectionLimits, server_options
+
+    limits = ConnectionLimits.for_this_process()  # raises the descriptor limit too
+    options_ = {**uvicorn_options(), **server_options(limits)}
+    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", **options_))
     outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each
     try:
         server.run(sockets=[sock])

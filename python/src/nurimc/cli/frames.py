@@ -9,6 +9,7 @@ from typing import Any
 
 import typer
 
+from ..budgets import READ_LIMITS_HELP
 from ..errors import InputError, PortLost
 from ..inputs import UNIT_SHOWN, field_value, integer, with_unit
 from ..outage import OutageGuard
@@ -26,7 +27,7 @@ from ..protocol import (
     wire_bytes,
 )
 from ..trafficlog import read_traffic_log
-from .common import STOP, Number, Options, emit, fail, note, open_bus, options, say_line, table
+from .common import EXIT_USAGE, STOP, Number, Options, emit, fail, note, open_bus, options, say_line, table
 from .common import note as tell
 
 BROADCAST = 0xFF
@@ -215,14 +216,21 @@ def replay(
         help="A traffic log (Bus(log_path=...)), a sigrok capture (.sr), the nurimc sigrok decoder's output, "
         "or an MCAP recording (its summary).",
     ),
+    read_limits: str = typer.Option(None, "--read-limits", help=READ_LIMITS_HELP),
 ) -> None:
     """Decode a traffic log, or a logic-analyzer capture (docs/sigrok.md).
 
     Example: nurimc replay traffic.log
     """
+    from ..budgets import default_budget
     from ..sigrok import read_capture
 
     o = options(ctx)
+    try:
+        budget = default_budget().with_text(read_limits or "")
+    except ValueError as error:
+        fail(str(error), EXIT_USAGE)
+
     from ..recording.summary import is_mcap
 
     if is_mcap(log):  # a recording (nurimc record): what it holds (nurimc export for its samples)
@@ -235,8 +243,8 @@ def replay(
     key = _line(None, o).key  # the global --product: the table the frames are read with
     parsers = {"tx": StreamParser(line=key), "rx": StreamParser(line=key)}
     try:
-        capture = read_capture(log)  # None: not a capture, a traffic log
-        lines = read_traffic_log(log) if capture is None else capture
+        capture = read_capture(log, budget=budget)  # None: not a capture, a traffic log
+        lines = read_traffic_log(log, budget) if capture is None else capture
     except OSError as error:
         fail(f"{log}: {error.strerror or error}")
     for t, direction, data in lines:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import typer
 
+from ..budgets import READ_LIMITS_HELP
 from ..errors import NurimcError, PortLost
 from ..outage import OutageGuard
 from .common import EXIT_DEVICE, Number, fail, options, out, say_line
@@ -89,6 +90,7 @@ def record(
             recorder.close()
         raise
     stop = threading.Event()
+    recorder.on_failure = lambda _why: stop.set()  # disk full: the recording ends at once (recorder.failed)
     port_error: list[str] = []
     try:
         motor_list = motor_ids(o, ids, bus)
@@ -150,6 +152,8 @@ def record(
     finally:
         bus.close()
         recorder.close()
+    if recorder.failed:  # the disk (full, gone): one line, exit 1
+        fail(f"the recording stopped: {recorder.failed}", EXIT_DEVICE)
     counts = ", ".join(tr(f"{n} on {t}") for t, n in sorted(recorder.counts.items()))
     out.print(tr(f"wrote {mcap_path}: {counts or tr('no messages')}"), soft_wrap=True, markup=False)
     if port_error:
@@ -161,6 +165,7 @@ def repair_mcap(
     output: Path = typer.Option(
         None, "--out", "-o", help="Where to write the repaired file (default TORN.repaired.mcap)."
     ),
+    read_limits: str = typer.Option(None, "--read-limits", help=READ_LIMITS_HELP),
 ) -> None:
     """Repair a torn MCAP file (a crash mid-write, a copy cut short): keep every whole record, write a complete file.
 
@@ -169,16 +174,25 @@ def repair_mcap(
     from .ros2_cmd import need_extra
 
     need_extra()
+    from ..budgets import default_budget
     from ..recording.repair import repair
 
     target = output if output is not None else torn.with_suffix(".repaired.mcap")
     try:
-        result = repair(torn, target)
+        result = repair(torn, target, default_budget().with_text(read_limits or ""))
     except ValueError as error:
         fail(str(error))
     if result.complete:
         complete = f"{torn} was complete; copied {result.messages} messages to {target}"
         out.print(tr(complete), soft_wrap=True, markup=False)
+    elif result.lost and not result.messages:  # nothing whole in it (a chunk bomb, all chunks broken)
+        fail(f"nothing kept from {torn}: {result.problem}", EXIT_DEVICE)
+    elif result.lost:  # broken chunks skipped, the rest kept (recording/salvage.py)
+        out.print(
+            tr(f"wrote {target}: {result.messages} messages kept; skipped in {torn}: {result.problem}"),
+            soft_wrap=True,
+            markup=False,
+        )
     else:
         out.print(
             tr(f"wrote {target}: {result.messages} messages kept; {torn} stopped at {result.problem}"),

@@ -20,10 +20,12 @@ from ..errors import InputError
 from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
 from ..journal import RestoreJournal, incomplete_message
 from ..motor import Motor
+from ..products import UNKNOWN, detect_line
 from ..settings import SETTINGS, Setting, setting
 from .common import (
     EXIT_DEVICE,
     EXIT_OK,
+    EXIT_USAGE,
     Options,
     SignedValuesCommand,
     check_baud,
@@ -158,7 +160,15 @@ def backup(ctx: typer.Context, file: str = typer.Argument(..., help="JSON file t
     emit(o, {"file": file, "ids": [m.id for m in motors]}, f"saved {len(motors)} motor(s) to {file}")
 
 
-def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file written by backup.")) -> None:
+def restore(
+    ctx: typer.Context,
+    file: str = typer.Argument(..., help="A file written by backup."),
+    force_line: bool = typer.Option(
+        False,
+        "--force-line",
+        help="Restore a backup of another product line: its settings by name, each checked for the controller's line.",
+    ),
+) -> None:
     """Write back every setting that differs from a backup (each verified).
 
     Example: nurimc --port /dev/ttyUSB0 restore robot.json
@@ -167,18 +177,40 @@ def restore(ctx: typer.Context, file: str = typer.Argument(..., help="A file wri
     document = config.load_backup(file)
     ids = [entry["id"] for entry in document.get("motors", [])]
     with open_bus(o) as bus:
+        motors = [restore_target(bus, o, entry) for entry in document.get("motors", [])]
+        try:  # the line and every value first: a refusal leaves no journal and writes nothing
+            forced = config.restore_check([m.procedures for m in motors], document, force_line)
+        except InputError as error:
+            fail(str(error), EXIT_USAGE)
+        for line in forced:  # the summary of what --force-line does
+            err.print(f"{tr('warning:')} {tr(f'{line}; --force-line: writing its settings by name')}", soft_wrap=True)
         journal = restore_journal(o, ids, file)  # docs/cli.md: an interrupted restore is found next time
-        products = {entry["id"]: entry.get("product") for entry in document.get("motors", [])}
-        motors = [  # each in the product line the backup names, unless --product says otherwise
-            bus.motor(i, o.product) if o.product_given or not products.get(i) else bus.motor(i, products[i])
-            for i in ids
-        ]
-        changed = bus.run(config.restore([m.procedures for m in motors], document))
+        changed = bus.run(config.restore([m.procedures for m in motors], document, force_line))
         journal.done(ids)
     rows = table(f"restored from {file}", "change")
     for line in changed or ["nothing differed"]:
         rows.add_row(line)
     emit(o, {"file": file, "changed": changed}, rows)
+
+
+def restore_target(bus: Bus, o: Options, entry: dict[str, object]) -> Motor:
+    """The controller a backup motor is restored onto, in the line it answers as (--product if
+    given): never the backup's word for it, which is what restore checks against."""
+    device_id = entry["id"]
+    assert isinstance(device_id, int)
+    if o.product_given:
+        return bus.motor(device_id, o.product)
+    product = entry.get("product")
+    if isinstance(product, str):  # kept if the controller answers in its line (blmc-h stays blmc-h)
+        bus.core.products[device_id] = product
+    identified = bus.run(detect_line(bus.core, device_id))
+    if identified.line == UNKNOWN:
+        fail(
+            f"ID {device_id} at {bus.baudrate} bps answers none of the questions that tell product lines apart "
+            "(or does not answer): give --product (mc, blmc-h, rsa, rsavw, sa, sm-cs, sm-readme)",
+            EXIT_USAGE,
+        )
+    return bus.motor(device_id)
 
 
 def restore_journal(o: Options, ids: list[int], file: str) -> RestoreJournal:

@@ -67,9 +67,13 @@ class SecurityPolicy:
     listen: ListenAddress
     token: str | None = None
     extra_hosts: tuple[str, ...] = field(default=())
+    #: `--allow-any-port`: the page may open any port URL (files and network as the server's user)
+    any_port: bool = False
 
     @classmethod
-    def build(cls, listen: ListenAddress, token: str | None, extra_hosts: tuple[str, ...] = ()) -> SecurityPolicy:
+    def build(
+        cls, listen: ListenAddress, token: str | None, extra_hosts: tuple[str, ...] = (), any_port: bool = False
+    ) -> SecurityPolicy:
         if token is not None and len(token) < 16:
             raise ListenError(
                 "--token must be at least 16 characters "
@@ -80,7 +84,7 @@ class SecurityPolicy:
                 f"listening on {listen.host} lets other machines drive the motors: give --token SECRET "
                 "(at least 16 characters), or listen on 127.0.0.1"
             )
-        return cls(listen, token, extra_hosts)
+        return cls(listen, token, extra_hosts, any_port)
 
     def host_allowed(self, host_header: str | None) -> bool:
         """The Host header names this server (not a rebinding name)."""
@@ -99,7 +103,72 @@ class SecurityPolicy:
         parts = urlsplit(origin)
         return parts.scheme in ("http", "https") and parts.netloc.lower() == host_header.lower()
 
+    def port_refusal(self, url: str) -> str | None:
+        """Why the page may not open this port (None: it may). See port_refusal() below."""
+        return None if self.any_port else port_refusal(url)
+
     def token_ok(self, presented: str | None) -> bool:
         if self.token is None:
             return True
         return presented is not None and hmac.compare_digest(presented.encode(), self.token.encode())
+
+
+#: sim:// options that touch files (the simulator's state directory)
+SIM_FILE_OPTIONS = ("state",)
+_DEVICE_PREFIXES = ("/dev/",)
+ALLOW_ANY_PORT = "--allow-any-port"
+
+
+def port_refusal(url: str) -> str | None:
+    """Why a page may not open this port URL, or None if it may (docs/dashboard.md, "What the page may open").
+
+    A page may open serial devices (/dev/..., COMn) and the simulator (sim:// without a state
+    directory). Every other URL (spy:// writes a file, socket:// and rfc2217:// reach the network,
+    loop://, alt://, hwgrep://, plug-in schemes) needs the server started with --allow-any-port."""
+    text = url.strip()
+    if any(ord(ch) < 32 for ch in text):
+        return "the port name holds control characters"
+    head, sep, _rest = text.partition("://")
+    if not sep:
+        if _is_windows_port(text):
+            return None
+        if not text.startswith(_DEVICE_PREFIXES) or "/../" in text + "/":
+            return f"{text!r} is not a serial device: the page opens /dev/... devices (or COMn) and sim://"
+        return None
+    scheme = head.lower()
+    if scheme == "sim":
+        from urllib.parse import parse_qs, urlsplit
+
+        options = parse_qs(urlsplit(text).query, keep_blank_values=True)
+        touching = sorted(name for name in options if name.lower() in SIM_FILE_OPTIONS)
+        if touching:
+            return (
+                f"sim:// option {', '.join(touching)} writes files on the server: "
+                f"not from the page unless the console was started with {ALLOW_ANY_PORT}"
+            )
+        return None
+    return (
+        f"{scheme}:// ports reach files or the network as the server's user: "
+        f"not from the page unless the console was started with {ALLOW_ANY_PORT}"
+    )
+
+
+def _is_windows_port(text: str) -> bool:
+    name = text.upper().removeprefix("\\\\.\\")
+    return name.startswith("COM") and name[3:].isdigit()
+
+
+def security_headers(host: str | None) -> list[tuple[bytes, bytes]]:
+    """Headers on every HTTP answer: no framing (clickjacking), scripts only from the console itself."""
+    sockets = f" ws://{host} wss://{host}" if host else ""
+    policy = (
+        "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+        f"connect-src 'self'{sockets}; object-src 'none'; base-uri 'none'; form-action 'self'; "
+        "frame-ancestors 'none'"
+    )
+    return [
+        (b"x-frame-options", b"DENY"),
+        (b"content-security-policy", policy.encode("latin-1")),
+        (b"x-content-type-options", b"nosniff"),
+        (b"referrer-policy", b"no-referrer"),
+    ]

@@ -25,8 +25,9 @@ from .. import __version__
 from ..client.sync import Bus
 from . import commands as c
 from .busstats import FrameRate, bus_stats
+from .connlimits import quiet_emfile
 from .frames import FrameTap
-from .security import TOKEN_COOKIE, SecurityPolicy
+from .security import TOKEN_COOKIE, SecurityPolicy, security_headers
 from .worker import BusWorker
 
 STATIC = Path(__file__).parent / "static"
@@ -81,6 +82,8 @@ class GuardMiddleware:
             return
         request = Request(scope) if scope["type"] == "http" else WebSocket(scope, receive, send)
         host = request.headers.get("host")
+        if scope["type"] == "http":
+            send = _with_headers(send, security_headers(host if self.policy.host_allowed(host) else None))
         if not self.policy.host_allowed(host):
             await self._refuse(scope, receive, send, 421, f"Host {host!r} is not this console; use http://127.0.0.1")
             return
@@ -98,6 +101,17 @@ class GuardMiddleware:
             await WebSocket(scope, receive, send).close(code=POLICY_VIOLATION, reason=text)
         else:
             await PlainTextResponse(text, status_code=status)(scope, receive, send)
+
+
+def _with_headers(send: Send, headers: list[tuple[bytes, bytes]]) -> Send:
+    """Every HTTP answer carries the security headers (security.security_headers)."""
+
+    async def sending(message: Any) -> None:
+        if message["type"] == "http.response.start":
+            message = {**message, "headers": [*message.get("headers", []), *headers]}
+        await send(message)
+
+    return sending
 
 
 class Outbox:
@@ -235,6 +249,7 @@ def create_app(config: DashboardConfig) -> Starlette:
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
         loop = asyncio.get_running_loop()
+        quiet_emfile(loop)  # out of descriptors at accept(): one line a minute (connlimits.py)
 
         def publish(event: dict[str, Any]) -> None:  # called from the bus thread
             loop.call_soon_threadsafe(hub.broadcast, event)
@@ -410,6 +425,10 @@ async def _receive_loop(
             continue
         except Exception as error:  # never let one message close the page's connection
             box.put(_reply(req, None, f"internal error: {type(error).__name__}: {error}"))
+            continue
+        refusal = config.policy.port_refusal(command.port) if isinstance(command, c.OpenBus) else None
+        if refusal is not None:  # what the page may open (security.port_refusal)
+            box.put(_reply(req, None, f"open_bus: {refusal}"))
             continue
         if isinstance(command, c.Frames):  # the raw view: no bus work, just whether frames are queued
             config.tap.enabled = command.on

@@ -14,6 +14,7 @@ import math
 import os
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from cyclonedds.idl import IdlStruct
@@ -22,7 +23,7 @@ from mcap.writer import CompressionType, Writer
 from .. import __version__
 from ..protocol import StreamParser, wire_bytes
 from ..ros2 import msgs
-from .checkpoint import CheckpointStream, checkpoint, finish
+from .checkpoint import CheckpointFailed, CheckpointStream, checkpoint, finish
 
 FRAMES_TOPIC = "/nurimc/frames"
 
@@ -56,6 +57,10 @@ class McapRecorder:
         self._dropped = {"tx": 0, "rx": 0}
         self.counts: dict[str, int] = {}
         self._closed = False
+        #: why the recording stopped writing (disk full...), one line; None while all is well
+        self.failed: str | None = None
+        #: called once (from the checkpoint thread) when it fails: the caller ends the recording
+        self.on_failure: Callable[[str], None] | None = None
         self._stop = threading.Event()
         self._checkpoints: threading.Thread | None = None
         if checkpoint_seconds:
@@ -69,12 +74,30 @@ class McapRecorder:
             with self._lock:
                 if self._closed:
                     return
-                checkpoint(self._writer, self._stream, sync=False)
+                try:
+                    checkpoint(self._writer, self._stream, sync=False)
+                except OSError as error:  # disk full: stop writing at once, the file as it was
+                    self._fail(error)
+                    break
                 fd = self._stream.fd
             # fsync outside the lock: a slow disk must not hold up the messages being recorded
             # (after a close in between, fsync of a closed or reused descriptor does no harm)
             with contextlib.suppress(OSError):
                 os.fsync(fd)
+        if self.failed is not None and self.on_failure is not None:
+            self.on_failure(self.failed)
+
+    def _fail(self, error: OSError) -> None:
+        """Under the lock: no more writes; say why in one line."""
+        self._closed = True
+        self._stop.set()
+        restored = not isinstance(error, CheckpointFailed) or error.restored
+        after = (
+            "the file is complete up to its last checkpoint"
+            if restored
+            else f"the file may be torn: run nurimc repair-mcap {self.path}"
+        )
+        self.failed = f"cannot write {self.path}: {error.strerror or error}; {after}"
 
     def _channel(self, topic: str, ros_type: str) -> int:
         key = (topic, ros_type)
@@ -120,12 +143,17 @@ class McapRecorder:
             self.write(FRAMES_TOPIC, message, t)
 
     def close(self) -> None:
+        """Finish the file. A failure (disk full) is not raised: `failed` says it in one line."""
         with self._lock:
-            if self._closed:
+            if self._stream.fd < 0:
                 return
-            self._closed = True
-            self._stop.set()
             try:
-                finish(self._writer, self._stream)
+                if not self._closed:
+                    self._closed = True
+                    self._stop.set()
+                    finish(self._writer, self._stream)
+            except OSError as error:
+                self._fail(error)
             finally:
                 os.close(self._stream.fd)
+                self._stream.fd = -1

@@ -9,7 +9,7 @@ from __future__ import annotations
 from .core import HostLink, WireModel, describe
 from .port import SimSerial
 from .pty_server import PtyEndpoint, PtyServer
-from .tcp_server import TcpServer
+from .tcp_server import MAX_CLIENTS, TcpServer
 
 
 class SimBus(WireModel):
@@ -29,13 +29,18 @@ class SimBus(WireModel):
         return self.serve_pty(link, monitor=True)
 
     def serve_tcp(
-        self, port: int = 0, host: str = "127.0.0.1", baud: int | None = None, monitor: bool = False
+        self,
+        port: int = 0,
+        host: str = "127.0.0.1",
+        baud: int | None = None,
+        monitor: bool = False,
+        max_clients: int = MAX_CLIENTS,
     ) -> TcpServer:
         """Serve raw TCP (pyserial socket://); the host's rate is `baud` (default: the first controller's).
         With `monitor`, every client hears both directions."""
         if baud is None:
             baud = self.controllers[0].baud if self.controllers else 9600
-        return TcpServer(self, host, port, baud, monitor=monitor).start()
+        return TcpServer(self, host, port, baud, monitor=monitor, max_clients=max_clients).start()
 
 
 __all__ = ["HostLink", "SimBus", "describe"]

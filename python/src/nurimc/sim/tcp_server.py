@@ -8,7 +8,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import select
+import selectors
 import socket
 import threading
 
@@ -16,19 +16,56 @@ from .core import HostLink, WireModel
 
 log = logging.getLogger("nurimc.sim")
 
+#: clients served at once; one more is accepted and closed at once (with a log line)
+MAX_CLIENTS = 1024
+#: bytes waiting for a client that does not read; past this it is dropped (the others never wait for it)
+MAX_PENDING = 64 * 1024
+#: the kernel's send buffer per client (fixed: a client that does not read is noticed within ~MAX_PENDING + this)
+SEND_BUFFER = 64 * 1024
+
+
+class _Client:
+    __slots__ = ("link", "peer", "pending")
+
+    def __init__(self, link: HostLink, peer: str) -> None:
+        self.link = link
+        self.pending = bytearray()
+        self.peer = peer
+
 
 class TcpServer:
-    def __init__(self, bus: WireModel, host: str, port: int, baud: int, monitor: bool = False) -> None:
+    """The bus on a TCP port: `selectors` (epoll/kqueue: no FD_SETSIZE limit), non-blocking
+    client sockets each with a bounded output buffer, a client cap, and a loop that logs and
+    goes on after an error instead of ending (docs/simulator.md, "TCP server")."""
+
+    def __init__(
+        self,
+        bus: WireModel,
+        host: str,
+        port: int,
+        baud: int,
+        monitor: bool = False,
+        max_clients: int = MAX_CLIENTS,
+        max_pending: int = MAX_PENDING,
+    ) -> None:
         self.bus = bus
         self.baud = baud
         self.monitor = monitor
-        self.listener = socket.create_server((host, port))
+        self.max_clients = max_clients
+        self.max_pending = max_pending
+        self.listener = socket.create_server((host, port), backlog=128)
         self.listener.setblocking(False)
         self.address: tuple[str, int] = self.listener.getsockname()[:2]
-        self.clients: dict[socket.socket, HostLink] = {}
+        self.clients: dict[socket.socket, _Client] = {}
+        self.refused = 0  # connections closed at the cap
+        self.dropped = 0  # clients dropped for not reading
+        self.errors = 0  # errors the loop logged and survived
         self._wake_r, self._wake_w = os.pipe()
         for fd in (self._wake_r, self._wake_w):
             os.set_blocking(fd, False)
+        self._selector = selectors.DefaultSelector()
+        self._selector.register(self.listener, selectors.EVENT_READ, "listen")
+        self._selector.register(self._wake_r, selectors.EVENT_READ, "wake")
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="nurimc-sim-tcp", daemon=True)
 
@@ -36,57 +73,102 @@ class TcpServer:
         self._thread.start()
         return self
 
+    @property
+    def alive(self) -> bool:
+        return self._thread.is_alive()
+
     def _serve(self) -> None:
         while not self._stop.is_set():
-            sockets: list[socket.socket | int] = [self.listener, self._wake_r, *self.clients]
             try:
-                readable, _, _ = select.select(sockets, [], [], self.bus.wait_hint())
-            except (OSError, ValueError):
-                break
-            if self._wake_r in readable:
+                self._turn()
+            except Exception:  # never end silently: say what happened and go on serving
+                self.errors += 1
+                log.exception("simulator TCP server: error in its loop (serving on)")
+
+    def _turn(self) -> None:
+        for key, events in self._selector.select(self.bus.wait_hint()):
+            if key.data == "wake":
                 with contextlib.suppress(OSError):
                     while os.read(self._wake_r, 4096):
                         pass
-            if self.listener in readable:
+            elif key.data == "listen":
                 self._accept()
-            for sock in list(self.clients):
-                if sock in readable:
+            else:
+                sock = key.fileobj
+                assert isinstance(sock, socket.socket)
+                if events & selectors.EVENT_READ:
                     self._read(sock)
-            for sock, link in list(self.clients.items()):
-                out = link.take()
-                if out:
-                    try:
-                        sock.sendall(out)
-                    except OSError:
-                        self._drop(sock)
+                if events & selectors.EVENT_WRITE and sock in self.clients:
+                    self._flush(sock)
+        for sock, client in list(self.clients.items()):
+            out = client.link.take()
+            if out:
+                client.pending += out
+                self._flush(sock)
 
     def _accept(self) -> None:
-        try:
-            sock, peer = self.listener.accept()
-        except OSError:
-            return
-        sock.setblocking(True)
-        sock.settimeout(1.0)
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        link = self.bus.open_link(self.baud, monitor=self.monitor)
-        link.wake = self._wake
-        self.clients[sock] = link
-        log.info("tcp client %s:%d connected", *peer[:2])
+        for _ in range(64):  # a burst of connections, a bounded turn
+            try:
+                sock, peer = self.listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as error:  # EMFILE and the like: said once per burst, retried next turn
+                log.warning("simulator TCP server: cannot accept (%s)", error.strerror or error)
+                return
+            if len(self.clients) >= self.max_clients:
+                self.refused += 1
+                if self.refused == 1 or self.refused % 100 == 0:
+                    log.warning("simulator TCP server: %d clients already; connection refused", len(self.clients))
+                sock.close()
+                continue
+            sock.setblocking(False)
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER)  # no autotuning to megabytes
+            link = self.bus.open_link(self.baud, monitor=self.monitor)
+            link.wake = self._wake
+            where = f"{peer[0]}:{peer[1]}"
+            self.clients[sock] = _Client(link, where)
+            self._selector.register(sock, selectors.EVENT_READ, "client")
+            log.info("tcp client %s connected", where)
 
     def _read(self, sock: socket.socket) -> None:
         try:
             data = sock.recv(4096)
+        except (BlockingIOError, InterruptedError):
+            return
         except OSError:
             data = b""
         if not data:
             self._drop(sock)
             return
-        self.clients[sock].write(data)
+        self.clients[sock].link.write(data)
+
+    def _flush(self, sock: socket.socket) -> None:
+        client = self.clients[sock]
+        if client.pending:
+            try:
+                sent = sock.send(client.pending)
+            except (BlockingIOError, InterruptedError):
+                sent = 0
+            except OSError:
+                self._drop(sock)
+                return
+            del client.pending[:sent]
+        if len(client.pending) > self.max_pending:
+            self.dropped += 1
+            log.warning("tcp client %s does not read (%d bytes waiting): dropped", client.peer, len(client.pending))
+            self._drop(sock)
+            return
+        want = selectors.EVENT_READ | (selectors.EVENT_WRITE if client.pending else 0)
+        if self._selector.get_key(sock).events != want:
+            self._selector.modify(sock, want, "client")
 
     def _drop(self, sock: socket.socket) -> None:
-        link = self.clients.pop(sock, None)
-        if link is not None:
-            link.close()
+        client = self.clients.pop(sock, None)
+        if client is not None:
+            client.link.close()
+        with contextlib.suppress(KeyError, ValueError, OSError):
+            self._selector.unregister(sock)
         with contextlib.suppress(OSError):
             sock.close()
 
@@ -105,9 +187,9 @@ class TcpServer:
             self._thread.join(timeout=2)
         for sock in list(self.clients):
             self._drop(sock)
-        for closable in (self.listener,):
-            with contextlib.suppress(OSError):
-                closable.close()
+        with contextlib.suppress(OSError):
+            self.listener.close()
+        self._selector.close()
         for fd in (self._wake_r, self._wake_w):
             with contextlib.suppress(OSError):
                 os.close(fd)
