@@ -275,6 +275,7 @@ class Tuner:
         if not 0.1 <= self.window <= 30:
             raise TuneRefused(f"trial window {self.window:g} s: give 0.1..30 s")
         self.result: TuneResult | None = None
+        self.restored: bool | None = None  # after an interruption: were the starting gains written back
         self._on_controller: Gains | None = None  # what the controller holds now (as written)
         self._released_by_us = False
         self._home = 0.0
@@ -346,15 +347,17 @@ class Tuner:
         """Control off if a trial may be moving, then the starting gains back (read back)."""
         result = self.result
         assert result is not None
+        self.restored = False
         if isinstance(error, PortLost):
             return False  # nothing reaches the controller: the caller's journal remembers
         try:
             yield from self.motor.release()
             self._released_by_us = True
             yield from self.write_gains(result.start_gains, result.rated_current)
-            return True
         except NurimcError:
             return False
+        self.restored = True
+        return True
 
     def _leave(self, gains: Gains, result: TuneResult) -> Procedure[None]:
         """End: the motor at rest, holding, with `gains` on the controller."""

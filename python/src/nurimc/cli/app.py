@@ -45,6 +45,7 @@ COMMAND_MODULES = (
     "inspect",
     "motion",
     "settings_cmd",
+    "tune_cmd",
     "frames",
     "demo",
     "sim_cmd",
