@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -25,7 +26,6 @@ def plant_bus(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> SimBus:
     sim, _ = sim_bus([1], baud=115200, resolution=1024)
     sim.controllers[0].set_plant(Plant(inertia=4.0))
     monkeypatch.setattr("nurimc.cli.tune_cmd.open_bus", lambda o: bus_on(sim, 115200, busy_window=0.05))
-    monkeypatch.setattr("nurimc.cli.common.detect_line", None, raising=False)
     return sim
 
 
@@ -68,3 +68,33 @@ def test_korean_messages_of_tune(plant_bus: SimBus, monkeypatch: pytest.MonkeyPa
     result = nurimc("--port", PORT, "--id", "1", "--product", "mc", "tune", "--trials", "3")
     assert result.code == 0, result.err
     assert "--apply" in result.err and "적용" in result.err
+
+
+def test_a_lost_port_leaves_the_journal_and_restore_writes_the_starting_gains_back(
+    plant_bus: SimBus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from nurimc.errors import PortLost
+    from nurimc.tuning import Tuner
+
+    real = Tuner._position_trial
+    calls: list[int] = []
+
+    def flaky(self: Tuner, number: int, gains: tuple[int, int, int]) -> Any:
+        calls.append(number)
+        if number == 3:
+            plant_bus.controllers[0].settings.position_kp = gains[0]  # the trial's gains were written
+            raise PortLost("the port went away (unplugged?)")
+        return (yield from real(self, number, gains))
+
+    monkeypatch.setattr(Tuner, "_position_trial", flaky)
+    result = nurimc("--port", PORT, "--id", "1", "--product", "mc", "tune", "--trials", "10")
+    assert result.code == 1
+    assert "could NOT restore the starting gains kp 50, ki 0, kd 10" in result.err
+    saved = RestoreJournal(PORT).pending(1)
+    assert saved is not None and f"restore {saved}" in " ".join(result.err.split())
+    assert gains_on(plant_bus) != START
+    monkeypatch.setattr("nurimc.cli.settings_cmd.open_bus", lambda o: bus_on(plant_bus, 115200, busy_window=0.05))
+    restored = nurimc("--port", PORT, "--product", "mc", "restore", saved)
+    assert restored.code == 0, restored.err
+    assert gains_on(plant_bus) == START
+    assert RestoreJournal(PORT).pending(1) is None
