@@ -113,6 +113,8 @@ class Trial:
     score: float  # lower is better; inf for an aborted trial
     aborted: str | None = None  # why the trial was stopped (control off), or None
     samples: tuple[tuple[float, float], ...] = ()  # (time from the step, value) as read
+    start: float = 0.0  # where the step began (deg; 0 RPM for a speed step)
+    target: float = 0.0  # the step's target (deg, or RPM)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -121,6 +123,8 @@ class Trial:
             "figures": None if self.figures is None else self.figures.as_dict(),
             "score": None if math.isinf(self.score) else round(self.score, 4),
             "aborted": self.aborted,
+            "start": self.start,
+            "target": self.target,
         }
 
 
@@ -431,11 +435,13 @@ class Tuner:
             return f"too much current: {current:g} A (max {env.max_current:g} A)"
         return None
 
-    def _abort(self, number: int, gains: Gains, why: str, samples: list[tuple[float, float]]) -> Procedure[Trial]:
+    def _abort(
+        self, number: int, gains: Gains, why: str, samples: list[tuple[float, float]], start: float, target: float
+    ) -> Procedure[Trial]:
         yield from self.motor.release()  # control off at once
         self._released_by_us = True
         yield from self._wait_at_rest()
-        return Trial(number, gains, None, math.inf, why, tuple(samples))
+        return Trial(number, gains, None, math.inf, why, tuple(samples), start, target)
 
     def _wait_at_rest(self) -> Procedure[bool]:
         began = yield Now()
@@ -476,13 +482,14 @@ class Tuner:
                 if crossing >= OSCILLATION_CROSSINGS:
                     why = f"oscillating ({crossing} crossings of the target)"
             if why is not None:
-                return (yield from self._abort(number, gains, why, samples))
+                return (yield from self._abort(number, gains, why, samples, here, target))
             yield Wait(SAMPLE_PAUSE)
         if not (yield from self._wait_at_rest()):
-            return (yield from self._abort(number, gains, "still moving after the trial (oscillating)", samples))
+            still = "still moving after the trial (oscillating)"
+            return (yield from self._abort(number, gains, still, samples, here, target))
         figures = response_figures(times, values, here, target, currents, min_band=0.5)
         cost, _ = score(figures, self.goal, self.window)
-        return Trial(number, gains, figures, cost, None, tuple(samples))
+        return Trial(number, gains, figures, cost, None, tuple(samples), here, target)
 
     def _speed_trial(self, number: int, gains: Gains) -> Procedure[Trial]:
         here = (yield from self.motor.read_state()).device_position
@@ -507,12 +514,12 @@ class Tuner:
             yield Note(TrialSample(number, t, speed))
             why = self._outside(state.device_position, speed, state.current)
             if why is not None:
-                return (yield from self._abort(number, gains, why, samples))
+                return (yield from self._abort(number, gains, why, samples, 0.0, rpm))
             yield Wait(SAMPLE_PAUSE)
         yield from self.motor.stop(ramp_seconds=0.1)
         figures = response_figures(times, values, 0.0, rpm, currents, min_band=1.0)
         cost, _ = score(figures, self.goal, window)
-        return Trial(number, gains, figures, cost, None, tuple(samples))
+        return Trial(number, gains, figures, cost, None, tuple(samples), 0.0, rpm)
 
 
 def _gains_text(gains: Gains) -> str:

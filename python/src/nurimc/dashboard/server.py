@@ -24,6 +24,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from .. import __version__
 from ..client.sync import Bus
 from . import commands as c
+from . import tune_panel
 from .busstats import bus_stats
 from .frames import FrameTap
 from .security import TOKEN_COOKIE, SecurityPolicy
@@ -405,6 +406,9 @@ async def _receive_loop(
             continue
         except Exception as error:  # never let one message close the page's connection
             box.put(_reply(req, None, f"internal error: {type(error).__name__}: {error}"))
+            continue
+        if isinstance(command, tune_panel.TuneCancel):  # out of band: the worker is busy with the tune
+            box.put(_reply(req, tune_panel.cancel(), None))
             continue
         if isinstance(command, c.Frames):  # the raw view: no bus work, just whether frames are queued
             config.tap.enabled = command.on

@@ -30,6 +30,7 @@ from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
+from . import tune_panel
 from .procedures import Reading, emergency_stop, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
@@ -380,6 +381,8 @@ class BusWorker:
                 return self._open_bus(port, rate)
             case c.EmergencyStop():
                 return self._emergency_stop()
+            case tune_panel.Tune():
+                return tune_panel.run_tune(self, command)
         raise ValueError(f"the bus worker cannot carry out {command!r}")
 
     def _discover(self, rates: tuple[int, ...] | None) -> dict[str, Any]:
