@@ -49,7 +49,7 @@ class FakeWorker:
 
 
 def test_tune_op_is_parsed_and_checked_before_the_bus() -> None:
-    command = c.parse({"op": "tune", "id": 1, "goal": "smooth", "trials": 5, "travel": 20})
+    command: object = c.parse({"op": "tune", "id": 1, "goal": "smooth", "trials": 5, "travel": 20})
     assert command == tune_panel.Tune(1, "position", "smooth", 20.0, 30.0, 3.0, 5, None, None)
     assert isinstance(c.parse({"op": "tune_cancel"}), tune_panel.TuneCancel)
     for message, said in [
@@ -68,7 +68,7 @@ def test_worker_handler_publishes_each_trial_and_writes_the_starting_gains_back(
     sim, bus = make_sim_bus([1], baud=115200, resolution=1024)
     sim.controllers[0].set_plant(Plant(inertia=3.0))
     worker = FakeWorker(bus)
-    answer = tune_panel.run_tune(worker, c.parse({"op": "tune", "id": 1, "trials": 5}))
+    answer = tune_panel.run_tune(worker, tune_panel.parse_tune({"op": "tune", "id": 1, "trials": 5}))
     assert answer["cancelled"] is False and answer["restored"] is True
     assert len(answer["trials"]) == 5 and answer["chosen_gains"] is not None
     trials = [e for e in worker.published if e["event"] == "trial"]
@@ -89,7 +89,7 @@ def test_cancel_mid_tune_restores_the_starting_gains(make_sim_bus: Build) -> Non
             tune_panel.cancel()  # what the server does when the page sends tune_cancel
 
     worker = FakeWorker(bus, cancel_at_three)
-    answer = tune_panel.run_tune(worker, c.parse({"op": "tune", "id": 1, "trials": 10}))
+    answer = tune_panel.run_tune(worker, tune_panel.parse_tune({"op": "tune", "id": 1, "trials": 10}))
     assert answer["cancelled"] is True and answer["restored"] is True
     assert len(answer["trials"]) == 2
     assert gains_on(sim) == START
