@@ -53,6 +53,9 @@ OSCILLATION_CROSSINGS = 4  # crossings of the target (outside the band) that cal
 START_RATIO = 0.5  # the search's first factor r: gains tried at (1 + r) and 1 / (1 + r)
 LAST_RATIO = 0.08
 GAIN_FIELDS = ("kp", "ki", "kd")
+NONE_MEASURED = (
+    "every trial was aborted: no gains were measured inside the envelope (widen it, or start from gentler gains)"
+)
 GAIN_RANGES = {"kp": (1, 254), "ki": (0, 254), "kd": (0, 254)}
 
 Gains = tuple[int, int, int]
@@ -317,8 +320,11 @@ class Tuner:
             self._home = state.device_position
             yield from self._check_not_stopped_elsewhere()
             yield from self._search(result)
-            if result.best is not None:
-                _, result.unmet = score(result.best.figures, self.goal, self.window) if result.best.figures else (0, [])
+            if result.best is not None and result.best.figures is None:
+                result.best = None  # nothing was measured inside the envelope: nothing to choose
+                result.unmet = [NONE_MEASURED]
+            elif result.best is not None and result.best.figures is not None:
+                result.unmet = score(result.best.figures, self.goal, self.window)[1]
             if apply and result.best is not None:
                 yield from self._leave(result.best.gains, result)
                 result.applied = True
@@ -408,12 +414,11 @@ class Tuner:
     def _trial(self, result: TuneResult, gains: Gains, tried: dict[Gains, float]) -> Procedure[Trial]:
         number = len(result.trials) + 1
         yield Note(TrialStarted(number, self.budget, gains))
+        yield from self._check_not_stopped_elsewhere()
+        if self._released_by_us:  # the last trial was aborted: back home with the best gains so far
+            yield from self._back_home(result)
         if self._on_controller != gains:
             yield from self.write_gains(gains, result.rated_current)
-        yield from self._check_not_stopped_elsewhere()
-        if self._released_by_us:  # the last trial was aborted: control on again, back home
-            yield from self.motor.hold()
-            self._released_by_us = False
         if self.loop == "position":
             trial = yield from self._position_trial(number, gains)
         else:
@@ -424,6 +429,21 @@ class Tuner:
             result.best = trial
         yield Note(TrialDone(trial, result.best))
         return trial
+
+    def _back_home(self, result: TuneResult) -> Procedure[None]:
+        """After an aborted trial (control off, the motor coasted): control on with the best gains
+        so far (the starting ones if none measured), and back to the start position if the
+        coast took it past half the travel, so the next trial starts inside the envelope."""
+        best = result.best if result.best is not None and result.best.figures is not None else None
+        safe = best.gains if best is not None else result.start_gains
+        if self._on_controller != safe:
+            yield from self.write_gains(safe, result.rated_current)
+        yield from self.motor.hold()
+        self._released_by_us = False
+        here = (yield from self.motor.read_state()).device_position
+        if abs(here - self._home) > self.envelope.travel / 2:
+            yield from self.motor.move_to(self._home, rpm=self.envelope.max_rpm)
+            yield from self._wait_at_rest(guard=False)  # coming back from outside: no abort on the way
 
     def _outside(self, position: float, speed: float, current: float) -> str | None:
         env = self.envelope
@@ -443,12 +463,15 @@ class Tuner:
         yield from self._wait_at_rest()
         return Trial(number, gains, None, math.inf, why, tuple(samples), start, target)
 
-    def _wait_at_rest(self) -> Procedure[bool]:
+    def _wait_at_rest(self, guard: bool = True) -> Procedure[bool]:
+        """Read until at rest (two readings under 1 RPM; False after SETTLE_PATIENCE); with
+        `guard`, a reading outside the envelope turns control off."""
         began = yield Now()
         still = 0
         while (yield Now()) - began < SETTLE_PATIENCE:
             state = yield from self.motor.read_state()
-            reason = None if self._released_by_us else self._outside(state.device_position, 0.0, state.current)
+            guarded = guard and not self._released_by_us
+            reason = self._outside(state.device_position, 0.0, state.current) if guarded else None
             if reason is not None:
                 yield from self.motor.release()
                 self._released_by_us = True

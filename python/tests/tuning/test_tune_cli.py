@@ -98,3 +98,23 @@ def test_a_lost_port_leaves_the_journal_and_restore_writes_the_starting_gains_ba
     assert restored.code == 0, restored.err
     assert gains_on(plant_bus) == START
     assert RestoreJournal(PORT).pending(1) is None
+
+
+def test_ctrl_c_mid_tune_restores_the_starting_gains_and_says_so(
+    plant_bus: SimBus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from nurimc.tuning import Tuner
+
+    real = Tuner._position_trial
+
+    def interrupted(self: Tuner, number: int, gains: tuple[int, int, int]) -> Any:
+        if number == 3:
+            raise KeyboardInterrupt  # as the driver throws it in when Ctrl+C lands mid-trial
+        return (yield from real(self, number, gains))
+
+    monkeypatch.setattr(Tuner, "_position_trial", interrupted)
+    result = nurimc("--port", PORT, "--id", "1", "--product", "mc", "tune", "--trials", "10")
+    assert result.code == 130
+    assert "stopped: restored the starting gains kp 50, ki 0, kd 10 (read back)" in result.err
+    assert gains_on(plant_bus) == START
+    assert RestoreJournal(PORT).pending(1) is None

@@ -12,7 +12,7 @@ from nurimc.errors import PortLost
 from nurimc.sim import SimBus
 from nurimc.sim.plant import Plant
 from nurimc.stepresponse import ResponseFigures, response_figures
-from nurimc.tuning import TrialDone, TrialSample, TrialStarted, TuneRefused, TuneStopped
+from nurimc.tuning import NONE_MEASURED, TrialDone, TrialSample, TrialStarted, TuneRefused, TuneStopped
 
 from ..client.simfixtures import sim_bus
 
@@ -174,20 +174,37 @@ def test_a_trial_leaving_the_envelope_is_aborted_with_control_off_and_never_retr
     motor = bus.motor(1)
     motor.set("position-kp", 254)
     motor.set("position-ki", 254)
-    events: list[Any] = []
+    home = sim.controllers[0].servo.motor.angle
     released: list[bool] = []
+    angles: list[float] = []
 
     def watch(event: Any) -> None:
-        events.append(event)
+        if isinstance(event, TrialSample):
+            angles.append(sim.controllers[0].servo.motor.angle)
         if isinstance(event, TrialDone) and event.trial.aborted:
             released.append(sim.controllers[0].settings.control == 1)
 
     result = bus.run(motor.procedures.tune("position", travel=10.0, max_current=1.0, trials=8), on_note=watch)
-    aborted = [t for t in result.trials if t.aborted]
-    assert aborted and all(released)  # control was off when each aborted trial was reported
+    assert len(result.trials) == 8 and all(t.aborted and "too much current" in t.aborted for t in result.trials)
+    assert len(released) == 8 and all(released)  # control was off when each aborted trial was reported
     tried = [t.gains for t in result.trials]
     assert len(tried) == len(set(tried))
+    assert max(abs(a - home) for a in angles) <= 10.0  # each trial began back inside the envelope
+    assert result.best is None and result.unmet == [NONE_MEASURED]
     assert gains_on(sim) == (254, 254, 10)
+    assert sim.controllers[0].settings.control == 0  # holding again at the end
+
+
+def test_a_gentler_candidate_is_measured_after_aborted_ones(make_sim_bus: Build) -> None:
+    _, bus = on_plant(make_sim_bus, Plant(inertia=3.0))
+    motor = bus.motor(1)
+    motor.set("position-kp", 120)
+    result = bus.run(motor.procedures.tune("position", goal="stiff", travel=20.0, max_current=1.0, trials=10))
+    aborted = [t for t in result.trials if t.aborted]
+    measured = [t for t in result.trials if t.figures is not None]
+    assert aborted and measured
+    assert result.best is not None and result.best.figures is not None
+    assert result.best.figures.current_peak <= 1.0
 
 
 def test_speed_loop_tune_runs_inside_the_envelope(make_sim_bus: Build) -> None:
@@ -207,3 +224,37 @@ def test_speed_loop_tune_runs_inside_the_envelope(make_sim_bus: Build) -> None:
 
 def test_sim_bus_helper_is_the_one_used() -> None:
     assert callable(sim_bus)
+
+
+def test_no_frame_reaches_the_controller_inside_its_eeprom_busy_time(make_sim_bus: Build) -> None:
+    """Every gains write, control on/off and read-back waits out the busy window: a controller as
+    slow as the window it is given never ignores a frame of the tune."""
+    sim, bus = make_sim_bus([1], baud=115200, resolution=1024, eeprom_time=0.3, busy_window=0.3)
+    sim.controllers[0].set_plant(Plant(inertia=3.0))
+    motor = bus.motor(1)
+    motor.set("position-kp", 200)  # aborted trials too: release, hold, gains back
+    result = bus.run(motor.procedures.tune("position", travel=20.0, max_current=1.5, trials=8))
+    assert len(result.trials) == 8
+    assert sim.controllers[0].frames_ignored_busy == 0
+
+
+def test_async_motor_tune(make_sim_bus: Build) -> None:
+    import asyncio
+
+    from nurimc import AsyncBus
+    from nurimc.transport import SerialTransport
+
+    sim, _ = on_plant(make_sim_bus, Plant(inertia=3.0))
+    clock = sim.virtual
+    assert clock is not None
+
+    async def main() -> Any:
+        bus = AsyncBus(SerialTransport(sim.open_serial(baudrate=115200), "sim://", latency=0.002), clock=clock)
+        try:
+            return await bus.motor(1).tune(goal="no-overshoot", trials=5, apply=True)
+        finally:
+            await bus.close()
+
+    result = asyncio.run(main())
+    assert len(result.trials) == 5 and result.applied and result.best is not None
+    assert gains_on(sim) == result.best.gains

@@ -44,6 +44,8 @@ PATTERNS: tuple[str, ...] = (
     "too fast: {value} RPM (max {limit})",
     "too much current: {value} A (max {limit} A)",
     "oscillating ({value} crossings of the target)",
+    "overshoot {value} % > {limit} %",
+    "settling {value} s > {limit} s",
     # product lines (issue 27), reconnect (21), restore journal, MCAP repair, captures: specific
     # templates first, before the generic ones below ("{where} line {line}" would take them)
     "--line: unknown product line {value}; lines: {lines}",
@@ -282,6 +284,8 @@ MESSAGES: tuple[str, ...] = (
     "chosen",
     "best",
     "still moving after the trial (oscillating)",
+    "did not settle",
+    "every trial was aborted: no gains were measured inside the envelope (widen it, or start from gentler gains)",
     "line",
     "MC or BLMC-H",
     "RSAVW",

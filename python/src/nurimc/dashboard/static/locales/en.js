@@ -421,4 +421,6 @@ export default {
   "tune.applied": "ID {id}: {list} (each written and verified)",
   "op.tune": "auto-tune",
   "op.tune_cancel": "cancel auto-tune",
+  "tune.noneMeasured":
+    "every trial was aborted: no gains were measured inside the envelope (widen it, or start from gentler gains)",
 };

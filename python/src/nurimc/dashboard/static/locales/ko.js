@@ -418,4 +418,6 @@ export default {
   "tune.applied": "ID {id}: {list} (각각 쓰고 확인함)",
   "op.tune": "자동 튜닝",
   "op.tune_cancel": "자동 튜닝 취소",
+  "tune.noneMeasured":
+    "모든 시험이 중단됨: 허용 범위 안에서 잰 이득이 없습니다(범위를 넓히거나 더 부드러운 이득에서 시작하세요)",
 };

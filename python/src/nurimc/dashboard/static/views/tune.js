@@ -83,6 +83,11 @@ function readEnvelope() {
 
 function showResult(result) {
   const box = $("#tune-result");
+  if (!result.chosen_gains) {
+    box.textContent = t("tune.noneMeasured");
+    box.dataset.chosen = "";
+    return;
+  }
   const start = result.start?.figures;
   const chosen = result.chosen?.figures;
   const fig = (f) =>
