@@ -12,7 +12,7 @@ import functools
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Any, Concatenate, Generic, ParamSpec, Protocol, TypeVar, overload
+from typing import TYPE_CHECKING, Any, Concatenate, Generic, ParamSpec, Protocol, TypeVar, overload
 
 from .client.actions import Now, Procedure, Wait
 from .client.core import BusCore
@@ -32,6 +32,9 @@ from .protocol import (
 )
 from .protocol.host import BUSY_POLL_INTERVAL, LIMITS
 from .settings import SETTINGS, Setting, confirmed_answer, fields_differ, setting
+
+if TYPE_CHECKING:
+    from .tuning import TuneResult
 
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest position a command can carry, degrees
 POSITION_WIRE_MAX = units.degrees_to_wire(POSITION_LIMIT)
@@ -484,6 +487,27 @@ class MotorProcedures:
             "(check the value is allowed for this product, then try again)"
         )
 
+    def tune(
+        self,
+        loop: str = "position",
+        goal: str | None = None,
+        max_overshoot: float | None = None,
+        max_settling: float | None = None,
+        travel: float = 30.0,
+        max_rpm: float = 30.0,
+        max_current: float = 3.0,
+        trials: int = 24,
+        apply: bool = False,
+    ) -> Procedure[TuneResult]:
+        """Tune the position or speed loop's gains on the motor (nurimc.tuning, docs/tuning.md):
+        small steps inside the envelope (travel deg around here, max rpm, max current A); the
+        starting gains are written back unless `apply`, and on any error or interruption."""
+        from .tuning import tune
+
+        return (
+            yield from tune(self, loop, goal, max_overshoot, max_settling, travel, max_rpm, max_current, trials, apply)
+        )
+
     def _remember(self, s: Setting, raw: int) -> None:
         if s.name == "response-time":
             self.core.response_times[self.id] = raw * 100e-6
@@ -590,6 +614,7 @@ class MotorApi:
     get = _Call(MotorProcedures.get)
     set = _Call(MotorProcedures.set)
     read_settings = _Call(MotorProcedures.read_settings)
+    tune = _Call(MotorProcedures.tune)
 
 
 class Motor(MotorApi, SyncHandle):

@@ -59,6 +59,7 @@ COMMAND_MODULES = (
     "inspect",
     "motion",
     "settings_cmd",
+    "tune_cmd",
     "frames",
     "demo",
     "sim_cmd",

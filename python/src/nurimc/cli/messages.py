@@ -39,6 +39,35 @@ SETTING_NAMES: tuple[str, ...] = (
 )
 
 PATTERNS: tuple[str, ...] = (
+    # tune (issue 35)
+    "trial {number}: kp {kp}, ki {ki}, kd {kd}",
+    "stopped: restored the starting gains kp {kp}, ki {ki}, kd {kd} (read back)",
+    "Write kp {kp}, ki {ki}, kd {kd} to ID {id}?",
+    "ID {id}: wrote kp {kp}, ki {ki}, kd {kd} (read back)",
+    "the starting settings are in {file}: once the motor answers, run: nurimc --port {port} restore {file2}",
+    "ID {id}: {loop} loop, goal {goal}",
+    "limit not met: {limit} (the best found is shown)",
+    "{what}; restored the starting gains kp {kp}, ki {ki}, kd {kd} (read back)",
+    "{what}; could NOT restore the starting gains kp {kp}, ki {ki}, kd {kd}",
+    "ID {id}: control is off and the tuner did not turn it off (an E-STOP from another program?); nothing more was moved",
+    "loop {value}: use position or speed",
+    "travel {value}°: give degrees around the present position, more than 0",
+    "max rpm {value}: give at least 1 RPM",
+    "max current {value} A: give 0.1..25.4 A",
+    "trials {value}: give 2..500 (the first trial measures the starting gains)",
+    "travel {value}° is too small to measure a step (at least {least}°); give a larger --travel",
+    "travel {value}° at {rpm} RPM is too short to measure a speed step (at least {least} s of running); give a larger --travel or a smaller --max-rpm",
+    "goal {value}: use one of {choices} (or --max-overshoot / --max-settling)",
+    "max overshoot {value} %: give a percentage, 0..100",
+    "max settling {value} s: give seconds, more than 0 and at most 30",
+    "cannot keep the starting settings in {folder} ({reason}): a lost port will not be remembered; set NURIMC_STATE_DIR to a writable folder",
+    "incomplete restore of {file}: run restore again; tuning now replaces it with a new copy of today's settings",
+    "left the envelope: {value}° from the start (travel ±{travel}°)",
+    "too fast: {value} RPM (max {limit})",
+    "too much current: {value} A (max {limit} A)",
+    "oscillating ({value} crossings of the target)",
+    "overshoot {value} % > {limit} %",
+    "settling {value} s > {limit} s",
     # product lines (issue 27), reconnect (21), restore journal, MCAP repair, captures: specific
     # templates first, before the generic ones below ("{where} line {line}" would take them)
     "--line: unknown product line {value}; lines: {lines}",
@@ -318,6 +347,23 @@ PATTERNS: tuple[str, ...] = (
 )
 
 MESSAGES: tuple[str, ...] = (
+    # tune (issue 35)
+    "tuning",
+    "the starting gains scored best: nothing to change",
+    "not applied: run with --apply to write the chosen gains (the starting gains are on the controller)",
+    "not applied: answered no (the starting gains stay)",
+    "chosen against starting gains",
+    "gains",
+    "overshoot %",
+    "settling s",
+    "rise s",
+    "current A",
+    "final error",
+    "chosen",
+    "best",
+    "still moving after the trial (oscillating)",
+    "did not settle",
+    "every trial was aborted: no gains were measured inside the envelope (widen it, or start from gentler gains)",
     "line",
     "MC or BLMC-H",
     "RSAVW",

@@ -358,7 +358,15 @@ _PARSERS: dict[str, Any] = {
     "factory_reset": _factory_reset,
     "ports": lambda m: Ports(),
     "open_bus": _open_bus,
+    "tune": lambda m: _tune_panel().parse_tune(m),  # Auto-tune (tune_panel.py)
+    "tune_cancel": lambda m: _tune_panel().TuneCancel(),
 }
+
+
+def _tune_panel() -> Any:
+    from . import tune_panel
+
+    return tune_panel
 
 
 def generation_of(message: Any) -> int | None:

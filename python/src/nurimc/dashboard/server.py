@@ -24,6 +24,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from .. import __version__
 from ..client.sync import Bus
 from . import commands as c
+from . import tune_panel
 from .busstats import FrameRate, bus_stats
 from .connlimits import quiet_emfile
 from .frames import FrameTap
@@ -425,6 +426,9 @@ async def _receive_loop(
             continue
         except Exception as error:  # never let one message close the page's connection
             box.put(_reply(req, None, f"internal error: {type(error).__name__}: {error}"))
+            continue
+        if isinstance(command, tune_panel.TuneCancel):  # out of band: the worker is busy with the tune
+            box.put(_reply(req, tune_panel.cancel(), None))
             continue
         refusal = config.policy.port_refusal(command.port) if isinstance(command, c.OpenBus) else None
         if refusal is not None:  # what the page may open (security.port_refusal)

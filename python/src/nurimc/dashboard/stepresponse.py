@@ -1,33 +1,8 @@
-"""Step-response figures for tuning: rise time (10 % to 90 %) and overshoot of a recorded move."""
+"""Step-response figures for tuning: moved to the library (nurimc.stepresponse); kept here so
+the console's imports stay as they were."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from ..stepresponse import StepFigures, analyse
 
-
-@dataclass(frozen=True, slots=True)
-class StepFigures:
-    rise_time: float | None  # seconds from 10 % to 90 % of the step; None if it never got there
-    overshoot: float  # percent of the step beyond the target (0 if none)
-    settled: bool  # the last sample is within 2 % of the step from the target
-    final_error: float  # degrees, target - last position
-
-
-def analyse(times: Sequence[float], positions: Sequence[float], start: float, target: float) -> StepFigures:
-    """Figures of a step from `start` to `target` sampled as (times, positions)."""
-    if len(times) != len(positions) or not times:
-        raise ValueError("a step response needs as many times as positions, at least one")
-    step = target - start
-    if step == 0:
-        raise ValueError("a step needs different start and target positions")
-    progress = [(p - start) / step for p in positions]  # 0 at start, 1 at target, whatever the sign
-
-    def first_time(level: float) -> float | None:
-        return next((t for t, x in zip(times, progress, strict=True) if x >= level), None)
-
-    t10, t90 = first_time(0.1), first_time(0.9)
-    rise = t90 - t10 if t10 is not None and t90 is not None else None
-    overshoot = max(0.0, (max(progress) - 1.0) * 100.0)
-    final_error = target - positions[-1]
-    return StepFigures(rise, round(overshoot, 2), abs(final_error) <= 0.02 * abs(step), round(final_error, 3))
+__all__ = ["StepFigures", "analyse"]

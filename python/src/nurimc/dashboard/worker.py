@@ -32,6 +32,7 @@ from ..service.backoff import Backoff
 from ..service.stop import Idle
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
+from . import tune_panel
 from .procedures import Reading, emergency_stop, gains_at_start, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
 from .stepresponse import analyse
@@ -404,6 +405,8 @@ class BusWorker:
                 return self._open_bus(port, rate)
             case c.EmergencyStop():
                 return self._emergency_stop()
+            case tune_panel.Tune():
+                return tune_panel.run_tune(self, command)
         raise ValueError(f"the bus worker cannot carry out {command!r}")
 
     def _discover(self, rates: tuple[int, ...] | None) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from .background import ready as background_ready
 from .bus import SimBus, describe
 from .faults import FaultConfig
 from .options import OptionError, check_baud, parse_ids, parse_motor
+from .plant import parse_plant
 from .profile import SPEED_ZERO_CHOICES, SimProfile, load_profiles
 from .settings import PRODUCT_NAMES
 from .store import StateError
@@ -69,6 +70,14 @@ def sim(
         typer.Option(
             help="What a motion frame with speed 0 does: stop (the default: decelerate to a stop over the "
             "arrival time, as the vendor's simulator) or ignore (the document's range starts at 1)."
+        ),
+    ] = None,
+    plant: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Plant of controller ID, ID:KEY=VALUE[,KEY=VALUE...] (repeatable): inertia, viscous, coulomb "
+            "(multiples of the default motor), backlash (deg), noise (deg std of the reading), delay (s). "
+            "E.g. 1:inertia=3,backlash=0.5 (docs/simulator.md)."
         ),
     ] = None,
     state: Annotated[str | None, typer.Option(help="Directory that keeps the settings across restarts.")] = None,
@@ -127,10 +136,27 @@ def sim(
             profiles,
             resolution,
         )
+        apply_plants(bus, plant or [])
     except (OptionError, StateError, ValueError) as exc:
         typer.echo(f"nurimc sim: {tr(str(exc))}", err=True)  # in the CLI's language (docs/cli.md)
         raise typer.Exit(2) from None
     serve(bus, link, tcp, host, baud, monitor)
+
+
+def apply_plants(bus: SimBus, texts: list[str]) -> None:
+    """Each --plant ID:KEY=VALUE,... onto the controllers with that ID (closes the bus on a bad one)."""
+    try:
+        for text in texts:
+            device_id, plant = parse_plant(text)
+            chosen = [c for c in bus.controllers if c.id == device_id]
+            if not chosen:
+                have = ", ".join(str(c.id) for c in bus.controllers)
+                raise OptionError(f"--plant {text!r}: no controller has ID {device_id} (IDs: {have})")
+            for controller in chosen:
+                controller.set_plant(plant)
+    except BaseException:
+        bus.close()
+        raise
 
 
 def check_serving(

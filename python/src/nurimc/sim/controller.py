@@ -19,7 +19,8 @@ from ..protocol.lines import SIMULATED_LINES
 from ..protocol.lines import line as line_named
 from ..protocol.message import check_value
 from . import servo as sv
-from .motor import ACCEL_PER_AMP, COULOMB
+from .motor import ACCEL_PER_AMP, COULOMB, VISCOUS
+from .plant import Plant
 from .servo import Mode, Servo
 from .settings import Settings, check_product
 
@@ -133,8 +134,10 @@ class SimController:
         gear = s.ratio / 10
         servo.limits.max_speed = s.rated_speed * 6.0 / gear
         # the motor's inertia and friction, seen through the gearbox (see motor.py)
-        servo.limits.accel_per_amp = ACCEL_PER_AMP / gear
-        servo.limits.coulomb = COULOMB / gear
+        plant = servo.plant  # a plant's inertia and friction as multiples of today's (sim/plant.py)
+        servo.limits.accel_per_amp = ACCEL_PER_AMP / gear / plant.inertia
+        servo.limits.coulomb = COULOMB * plant.coulomb / gear / plant.inertia
+        servo.limits.viscous = VISCOUS * plant.viscous / plant.inertia
         servo.limits.quantum = 360.0 / self.counts_per_output_turn
         product_max = PRODUCTS[self.product].max_rated_current
         pg, sg = servo.position_gains, servo.speed_gains
@@ -152,6 +155,11 @@ class SimController:
         )
         sg.current_limit = min(s.speed_rated_current, product_max) / 10
         servo.static = False
+
+    def set_plant(self, plant: Plant) -> None:
+        """Stand for another motor and load (sim/plant.py); the gains keep their scaling."""
+        self.servo.set_plant(plant, seed=self.slot)
+        self.apply_settings()
 
     def advance_to(self, now: float) -> None:
         """Step the physics up to bus time `now`."""

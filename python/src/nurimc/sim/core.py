@@ -170,6 +170,8 @@ class WireModel:
                 factory_defaults=profile.factory_defaults,
             )
             controller.restored = record is not None and record.get("product") == product
+            if profile.plant is not None:
+                controller.set_plant(profile.plant)
             controller.advance_to(self.now())
             settings.on_address_change(self._forget_index)
             self.controllers.append(controller)
@@ -477,7 +479,9 @@ class WireModel:
 def describe(bus: WireModel) -> list[str]:
     """One line per controller, for startup output."""
     return [
-        f"id {c.id} @ {c.baud} bps ({c.product}" + (f", {c.line} table)" if c.line not in (c.product, "mc") else ")")
+        f"id {c.id} @ {c.baud} bps ({c.product}"
+        + (f", {c.line} table)" if c.line not in (c.product, "mc") else ")")
+        + ("" if c.servo.plant.is_default() else f" plant {c.servo.plant.describe()}")
         for c in bus.controllers
     ]
 

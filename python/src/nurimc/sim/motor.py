@@ -31,10 +31,13 @@ class ShaftState:
     accel: float = 0.0  # deg/s^2 in the last step
 
 
-def step_motor(m: ShaftState, current: float, accel_per_amp: float, coulomb: float, dt: float) -> None:
+def step_motor(
+    m: ShaftState, current: float, accel_per_amp: float, coulomb: float, dt: float, viscous: float = VISCOUS
+) -> None:
     """Advance one step (semi-implicit Euler: stable for stiff friction at the step we use).
 
-    `accel_per_amp` and `coulomb` are at the output shaft (the motor's values / ratio).
+    `accel_per_amp` and `coulomb` are at the output shaft (the motor's values / ratio);
+    `viscous` is the coasting decay rate (1/s; a plant's inertia and viscous keys change it).
     """
     drive = current * accel_per_amp
     speed = m.speed
@@ -43,7 +46,7 @@ def step_motor(m: ShaftState, current: float, accel_per_amp: float, coulomb: flo
         m.accel = 0.0  # static friction holds
         return
     direction = 1.0 if speed > 0.0 or (speed == 0.0 and drive > 0.0) else -1.0
-    accel = drive - VISCOUS * speed - coulomb * direction
+    accel = drive - viscous * speed - coulomb * direction
     new_speed = speed + accel * dt
     if speed != 0.0 and (new_speed > 0.0) != (speed > 0.0) and abs(drive) <= coulomb:
         new_speed = 0.0  # friction stops the motor; it does not reverse it

@@ -16,6 +16,7 @@ from typing import Any
 
 from ..protocol import PRODUCTS
 from ..protocol.host import PROFILES
+from .plant import PLANT_KEYS, Plant, PlantError, plant_from
 from .settings import setting_problem
 
 SPEED_ZERO_CHOICES = ("ignore", "stop")
@@ -36,6 +37,7 @@ class SimProfile:
     speed_zero: str
     busy_window: float
     factory_defaults: dict[str, int]
+    plant: Plant | None = None  # the motor and load this product's controllers stand for (sim/plant.py)
 
 
 def default_profiles() -> dict[str, SimProfile]:
@@ -89,4 +91,13 @@ def _merge(base: SimProfile, entry: dict[str, Any], where: str) -> SimProfile:
         if problem is not None:
             raise ValueError(f"{where}.factory_defaults.{key}: {problem}")
         defaults[key] = value
-    return SimProfile(base.product, speed_zero, float(busy), defaults)
+    plant = base.plant
+    if "plant" in entry:
+        given_plant = entry["plant"]
+        if not isinstance(given_plant, dict):
+            raise ValueError(f"{where}.plant is not an object (keys: {', '.join(PLANT_KEYS)})")
+        try:
+            plant = plant_from(given_plant, f"{where}.plant", base.plant)
+        except PlantError as error:
+            raise ValueError(str(error)) from None
+    return SimProfile(base.product, speed_zero, float(busy), defaults, plant)

@@ -13,10 +13,13 @@ speed at n:1), so the loops behave the same at every ratio (see SimController.ap
 from __future__ import annotations
 
 import math
+import random
+from collections import deque
 from dataclasses import dataclass
 from enum import Enum
 
-from .motor import ACCEL_PER_AMP, COULOMB, ShaftState, step_motor
+from .motor import ACCEL_PER_AMP, COULOMB, VISCOUS, ShaftState, step_motor
+from .plant import Plant
 
 DT = 0.001  # s, the fixed physics step
 
@@ -53,6 +56,7 @@ class Limits:
     accel_per_amp: float  # deg/s^2 per A at the output shaft
     quantum: float  # deg: one encoder / hall step at the output shaft
     coulomb: float = COULOMB  # deg/s^2 of dry friction at the output shaft
+    viscous: float = VISCOUS  # 1/s, the coasting decay rate
 
 
 class Servo:
@@ -78,11 +82,28 @@ class Servo:
         self._last_speed_error = 0.0
         self.static = False  # nothing will change until a new command arrives
         self.hold_after_ramp = False  # a stop (speed 0): hold the place reached when the ramp ends
+        # plant parameters beyond inertia and friction (sim/plant.py): play, reading noise, dead time
+        self.plant = Plant()
+        self._output = 0.0  # deg, the output side of the play (read only when backlash > 0)
+        self._noise = 0.0  # deg, this step's noise on the reading
+        self._noise_rng = random.Random(0)
+        self._pending: deque[float] = deque()  # currents on their way through the drive's dead time
+
+    def set_plant(self, plant: Plant, seed: int = 0) -> None:
+        """Backlash, noise and delay of `plant` (inertia and friction go into the limits:
+        SimController.apply_settings)."""
+        self.plant = plant
+        self._output = self.motor.angle
+        self._noise = 0.0
+        self._noise_rng = random.Random(seed)
+        self._pending = deque([0.0] * round(plant.delay / DT))
+        self.static = False
 
     # --- measurements as the controller sees them -----------------------------------------
     def measured_angle(self) -> float:
         q = self.limits.quantum
-        return round(self.motor.angle / q) * q
+        angle = self._output if self.plant.backlash > 0.0 else self.motor.angle
+        return round((angle + self._noise) / q) * q
 
     # --- commands --------------------------------------------------------------------------
     def hold(self) -> None:
@@ -142,6 +163,7 @@ class Servo:
         """Section 15: the current position becomes zero (the motor keeps what it was doing)."""
         offset = self.measured_angle()
         self.motor.angle -= offset
+        self._output -= offset
         self.target -= offset
         self.ref -= offset
         if self.profile is not None:
@@ -171,8 +193,9 @@ class Servo:
             if self.mode is Mode.SPEED:
                 self.hold()
         if self.mode is Mode.OFF:
-            step_motor(m, 0.0, lim.accel_per_amp, lim.coulomb, DT)
-            self.static = m.speed == 0.0
+            step_motor(m, self._through_drive(0.0), lim.accel_per_amp, lim.coulomb, DT, lim.viscous)
+            self._sense_plant()
+            self.static = m.speed == 0.0 and not any(self._pending)
             return
         if self.mode is Mode.POSITION:
             feedforward = self._position_reference()
@@ -199,15 +222,35 @@ class Servo:
         if abs(current) < limit:
             self._speed_integral += speed_error * DT
         current = max(-limit, min(limit, current))
-        step_motor(m, current, lim.accel_per_amp, lim.coulomb, DT)
+        step_motor(m, self._through_drive(current), lim.accel_per_amp, lim.coulomb, DT, lim.viscous)
+        self._sense_plant()
         self.static = (
             m.speed == 0.0
+            and not any(self._pending)
+            and self.plant.noise == 0.0
             and speed_ref == 0.0
             and error == 0.0
             and self.profile is None
             and self.ramp is None
             and (self.mode is Mode.SPEED or self.ref == self.target)
         )
+
+    def _through_drive(self, current: float) -> float:
+        """The current applied now: the one asked for `plant.delay` seconds ago."""
+        if not self._pending:
+            return current
+        self._pending.append(current)
+        return self._pending.popleft()
+
+    def _sense_plant(self) -> None:
+        """The output side of the play follows the motor only once the play is taken up; a new
+        sample of the reading's noise."""
+        p = self.plant
+        if p.backlash > 0.0:
+            half = p.backlash / 2
+            self._output = min(max(self._output, self.motor.angle - half), self.motor.angle + half)
+        if p.noise > 0.0:
+            self._noise = self._noise_rng.gauss(0.0, p.noise)
 
     def _speed_cap(self, current_limit: float) -> float:
         """The fastest the position loop may ask for: the rated speed, a 01 move's speed, and a

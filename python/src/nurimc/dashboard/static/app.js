@@ -15,6 +15,7 @@ import { startSequence } from "./views/sequence.js";
 import { startSettings } from "./views/settings.js";
 import { startSetup } from "./views/setup.js";
 import { startStep } from "./views/step.js";
+import { startTune } from "./views/tune.js";
 
 window.dashboard = dashboard;
 dashboard.t = t; // for tests and the browser console
@@ -53,6 +54,7 @@ startMotors();
 startMainPlot();
 startSettings();
 startStep();
+startTune();
 startSequence();
 startSetup();
 startBackup();

@@ -88,6 +88,7 @@ function useLink(link) {
   dashboard.link = link;
   link.on("samples", (m) => addSamples(m.rows));
   link.on("progress", showProgress);
+  link.on("tune", (m) => emit("tune", m)); // Auto-tune trials (views/tune.js)
   link.on("frames", (m) => emit("frames", m.frames));
   link.on("estop", showEstop);
   link.on("estop_received", () => {

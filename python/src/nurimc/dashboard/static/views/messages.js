@@ -12,6 +12,7 @@ const COMMANDS = new Set([
   "hold",
   "set",
   "step",
+  "tune",
   "restore",
   "set_zero",
   "change_id",

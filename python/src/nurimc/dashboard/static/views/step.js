@@ -256,6 +256,10 @@ export function startStep() {
     rebuildPlot();
     renderTable();
   });
+  on("step-runs", () => {
+    rebuildPlot(); // runs added elsewhere (the Auto-tune panel's trials)
+    renderTable();
+  });
   rebuildPlot();
   renderTable();
 }
