@@ -276,7 +276,7 @@ def attach(node: Any, config: BaseConfig, stamped: bool = False) -> DiffDrive:
             twist = sample.twist if isinstance(sample, TwistStamped) else sample
             if isinstance(twist, Twist):
                 linear, angular = twist.linear.x, twist.angular.z
-                node.call_on_bus_thread(lambda now, v=linear, w=angular: base.command(v, w, now))
+                node.call_on_bus_thread(lambda now, v=linear, w=angular: base.command(v, w, now), key="cmd_vel")
 
     participant.reader(topic(node.namespace, "cmd_vel"), command_type, on_data)
 

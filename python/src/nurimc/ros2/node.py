@@ -2,7 +2,10 @@
 
 DDS delivers commands on Cyclone's own threads; they are queued here and the bus thread
 carries them out between readings, so a command waits at most for the reading under way.
-An estop drops every command queued before it and goes first.
+An estop drops every command queued before it and goes first. Commands coalesce (coalesce.py):
+the latest motion command replaces one still queued, so a flood costs no backlog; a reading or
+/diagnostics that is due goes before queued commands (never before an estop), so a flood does not
+starve joint_states either.
 """
 
 from __future__ import annotations
@@ -11,7 +14,6 @@ import math
 import sys
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from typing import Any, Protocol
 
@@ -23,6 +25,7 @@ from ..outage import OutageGuard
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
+from .coalesce import CommandQueue
 from .dds import Participant
 from .graph import NodeAnnouncer
 from .names import topic
@@ -78,7 +81,7 @@ class BridgeNode:
         self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
         self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
         self.published = 0
-        self._events: deque[tuple[str, Any]] = deque()
+        self._events = CommandQueue()
         self._wake = threading.Condition()
         self._stopping = False
         self._thread: threading.Thread | None = None
@@ -107,18 +110,15 @@ class BridgeNode:
 
         return on_data
 
-    def call_on_bus_thread(self, work: Callable[[float], list[Action]]) -> None:
-        """Queue work (from a DDS thread) that returns the actions to carry out; an estop drops it."""
-        self._push("call", work)
+    def call_on_bus_thread(self, work: Callable[[float], list[Action]], key: str | None = None) -> None:
+        """Queue work (from a DDS thread) that returns the actions to carry out; an estop drops it.
+        Work with a key replaces queued work of the same key (latest wins: coalesce.py)."""
+        self._push("call", work, key)
 
-    def _push(self, kind: str, value: Any) -> None:
+    def _push(self, kind: str, value: Any, key: str | None = None) -> None:
         with self._wake:
-            if kind == "estop":
-                # A stop wins over everything queued before it; estops keep their order among themselves.
-                kept = [e for e in self._events if e[0] == "estop"]
-                self._events.clear()
-                self._events.extend(kept)
-            self._events.append((kind, value))
+            # A stop wins over everything queued before it; the latest motion command wins (coalesce.py).
+            self._events.push(kind, value, key)
             self._wake.notify()
 
     # -- life --------------------------------------------------------------------------------
@@ -175,17 +175,21 @@ class BridgeNode:
     def _loop(self) -> None:
         next_read = time.monotonic()
         next_diagnostics = next_read
+        just_read = False
         while True:
             with self._wake:
                 if self._stopping:
                     break
-                event = self._events.popleft() if self._events else None
-                if event is None:
-                    now = time.monotonic()
-                    wake_at = min(next_read, next_diagnostics, self.bridge.next_expiry() or math.inf)
-                    if wake_at > now:
-                        self._wake.wait(wake_at - now)
-                        continue
+                now = time.monotonic()
+                wake_at = min(next_read, next_diagnostics, self.bridge.next_expiry() or math.inf)
+                # an estop first; then a reading, diagnostics or timeout that is due; then commands
+                # (--rate 0 reads all the time: a reading and a command take turns)
+                first = self._events.has_estop() or wake_at > now or (not self.period and just_read)
+                event = self._events.pop() if first else None
+                just_read = False
+                if event is None and wake_at > now:
+                    self._wake.wait(wake_at - now)
+                    continue
             now = time.monotonic()
             if self.outage.returned():  # before anything else: stops owed, fresh states
                 self._resume()
@@ -195,6 +199,7 @@ class BridgeNode:
             self._carry_out(self.bridge.expire(now))
             if now >= next_read:
                 self.read_and_publish()
+                just_read = True
                 next_read = max(next_read + self.period, time.monotonic()) if self.period else time.monotonic()
                 if self.outage.down:  # no reading can succeed: look again later, not in a busy loop
                     next_read = max(next_read, time.monotonic() + self.outage.recheck)
@@ -312,6 +317,7 @@ class BridgeNode:
             "baudrate": self.bus.baudrate,
             "port": self.bus.transport.url,
             "joint_states_published": self.published,
+            "coalesced_commands": self._events.dropped,  # replaced by a later one before reaching the bus
         }
         self._diagnostics_writer.write(self.bridge.diagnostics(time.time_ns(), self.prefix, self.hardware, stats))
 
