@@ -12,6 +12,7 @@ from typing import Any
 import typer
 
 from ..client.sync import Bus
+from ..errors import NurimcError
 from .common import EXIT_DEVICE, FramePrinter, Number, Options, err, fail, options, out, parse_ids
 from .i18n import tr
 from .motion import RAMP
@@ -89,14 +90,27 @@ def motor_ids(o: Options, ids_text: str | None, bus: Bus) -> list[int]:
     return sorted(f.id for f in found)
 
 
-def wait_for_signal(stop: threading.Event, seconds: float | None) -> None:
-    """Until SIGINT / SIGTERM (or `seconds`, if given)."""
+def install_stop_signals() -> threading.Event:
+    """An event that SIGINT / SIGTERM set (from now on, instead of interrupting)."""
+    stop = threading.Event()
 
     def on_signal(signum: int, frame: Any) -> None:
         stop.set()
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    return stop
+
+
+def wait_for_signal(stop: threading.Event, seconds: float | None, signalled: threading.Event | None = None) -> None:
+    """Until SIGINT / SIGTERM (or `seconds`, if given), or `stop` is set (e.g. the bridge ended)."""
+    signalled = signalled or install_stop_signals()
+
+    def relay() -> None:
+        signalled.wait()
+        stop.set()
+
+    threading.Thread(target=relay, daemon=True).start()
     stop.wait(seconds)
 
 
@@ -229,7 +243,13 @@ def ros2(
         control_topics.attach(node, control_commands, control_states)
         if base is not None:
             diffdrive.attach(node, base, stamped)
-        node.prepare()
+        stop = install_stop_signals()
+        try:
+            node.prepare(stop=stop)  # a failed first reading is retried (a line each time) until Ctrl-C
+        except NurimcError as error:
+            if stop.is_set():
+                fail(f"stopped before any motor answered: {error}", EXIT_DEVICE)
+            raise
         joints = ", ".join(f"{n}=ID {i}" for n, i in zip(names, motor_list, strict=True))
         out.print(
             f"ready: domain {domain}, node {topic(ns, node_name)}, {node.joint_states_topic} ({joints}); commands on "
@@ -239,7 +259,7 @@ def ros2(
             soft_wrap=True,
         )
         node.start()
-        wait_for_signal(node.done, seconds)
+        wait_for_signal(node.done, seconds, stop)
         node.stop()
         if node.failure:
             fail(node.failure, EXIT_DEVICE)

@@ -33,6 +33,7 @@ from .names import topic
 DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
 ESTOP_VERIFY = 1.0  # s: how long to read back control off after an estop (EEPROM busy 50-300 ms)
 DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
+FIRST_READING_RETRY = 1.0  # s between two tries of the first reading when no motor answers
 LOG_REPEAT = 2.0  # s between two reports of the same kind of trouble on stderr
 
 
@@ -122,9 +123,16 @@ class BridgeNode:
             self._wake.notify()
 
     # -- life --------------------------------------------------------------------------------
-    def prepare(self, discovery_wait: float = DISCOVERY_WAIT) -> dict[int, MotorState | Exception]:
+    def prepare(
+        self,
+        discovery_wait: float = DISCOVERY_WAIT,
+        stop: threading.Event | None = None,
+        retry: float = FIRST_READING_RETRY,
+    ) -> dict[int, MotorState | Exception]:
         """Refuse a namespace another bridge already serves; stagger for broadcast reads if asked; a first
-        reading (raises if no motor answers)."""
+        reading. With `stop`, a first reading that no motor answers is retried every `retry` seconds
+        (a line on stderr each time, at most every LOG_REPEAT s) until one answers or `stop` is set
+        (then the error is raised); without it the error is raised at once."""
         if discovery_wait and self.participant.other_writers(self.joint_states_topic, msgs.JointState, discovery_wait):
             raise NamespaceTaken(
                 f"another program already publishes {self.joint_states_topic} on DDS domain "
@@ -133,10 +141,28 @@ class BridgeNode:
         procedures = [m.procedures for m in self.motors.values()]
         if self.broadcast_read:
             self.slot = self.bus.run(stagger(procedures, self.bus.baudrate))
-        results = self.bus.run(read_states(procedures))
-        if all(isinstance(r, Exception) for r in results.values()):
+        attempt = 1
+        while True:
+            try:
+                results = self.bus.run(read_states(procedures))
+            except NurimcError as port_error:  # the port itself: every motor gets the error
+                results = {device_id: port_error for device_id in self.motors}
+            if not all(isinstance(r, Exception) for r in results.values()):
+                break
             first = next(iter(results.values()))
-            raise first if isinstance(first, NurimcError) else NurimcError(str(first))
+            failure = first if isinstance(first, NurimcError) else NurimcError(str(first))
+            if stop is None or stop.is_set():
+                raise failure
+            self._report(
+                "first",
+                f"first reading failed (attempt {attempt}): {failure}; retrying every {retry:g} s until a motor "
+                "answers (Ctrl-C to stop)",
+            )
+            attempt += 1
+            if stop.wait(retry):
+                raise failure
+        if attempt > 1:
+            self._log(f"first reading succeeded on attempt {attempt}")
         for device_id, result in results.items():
             if isinstance(result, Exception):
                 self._log(f"warning: ID {device_id}: {result}")
