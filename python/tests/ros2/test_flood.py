@@ -1,7 +1,7 @@
 """A command flood (10,000/s) costs no backlog and joint_states keeps its rate (issue #39 item 7).
 
-The bridge runs as its own process on a simulated bus, the flood comes over DDS from this test's
-own participant, as it would from a runaway ROS node. Commands coalesce (latest wins) and a
+The bridge runs as its own process on a simulated bus, the flood comes over DDS from a third
+process (flood.py), as it would from a runaway ROS node. Commands coalesce (latest wins) and a
 reading that is due goes before queued commands, so: joint_states keeps >= 0.8 of its rate, every
 message names both joints, and the last command of the flood is carried out at once (a backlog
 of tens of thousands of commands would take minutes).
@@ -10,8 +10,10 @@ of tens of thousands of commands would take minutes).
 from __future__ import annotations
 
 import math
-import threading
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 from .peer import DiagnosticArray, JointState, Peer, command
 from .test_end_to_end import BridgeProcess, near, peer, unique
@@ -20,6 +22,7 @@ __all__ = ["peer"]
 
 WINDOW = 3.0  # s over which a rate is counted
 FLOOD_RATE = 10_000  # commands/s asked of the sender
+PYTHON_DIR = Path(__file__).parents[2]
 
 
 def rate(states: object, seconds: float) -> tuple[float, list[JointState]]:
@@ -43,28 +46,21 @@ def test_joint_states_keep_their_rate_under_a_command_flood(peer: Peer) -> None:
         healthy, _ = rate(states, WINDOW)
         assert healthy > 10, healthy
 
-        sent = [0]
-        flooding = threading.Event()
-        flooding.set()
-
-        def flood() -> None:
-            start = time.monotonic()
-            while flooding.is_set():
-                value = (sent[0] % 8) * math.pi / 8  # on the simulated encoder's 22.5 degree grid
-                positions.write(command([value, -value]))
-                sent[0] += 1
-                if sent[0] > (time.monotonic() - start) * FLOOD_RATE:  # at most 10,000/s
-                    time.sleep(0.001)
-
-        sender = threading.Thread(target=flood, daemon=True)
-        t0 = time.monotonic()
-        sender.start()
+        flood = subprocess.Popen(
+            [sys.executable, "-m", "tests.ros2.flood", ns, str(WINDOW + 1.0), str(FLOOD_RATE)],
+            cwd=PYTHON_DIR,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert flood.stdout is not None
         try:
+            assert flood.stdout.readline().strip() == "flooding"
             flooded, messages = rate(states, WINDOW)
+            done = flood.stdout.readline()
         finally:
-            flooding.clear()
-            sender.join()
-        achieved = sent[0] / (time.monotonic() - t0)
+            flood.wait(timeout=30)
+        sent, seconds = int(done.split()[1]), float(done.split()[3])
+        achieved = sent / seconds
         print(f"joint_states {healthy:.1f}/s healthy, {flooded:.1f}/s under {achieved:.0f} commands/s")
         assert achieved > 1_000, achieved  # a flood, on a busy host too
         assert flooded >= 0.8 * healthy, (flooded, healthy, achieved)
