@@ -95,6 +95,8 @@ class BridgeNode:
             participant.reader(topic(namespace, "velocity_commands"), msgs.Float64MultiArray, self._queue("velocity")),
             participant.reader(topic(namespace, "estop"), msgs.Bool, self._queue("estop")),
         ]
+        #: also given every other message published (diagnostics, odom, /tf): an MCAP recorder's write()
+        self.recorder: Callable[[str, Any], None] | None = None
         #: called on the bus thread after each reading is published (ros2_control topics, mobile base)
         self.after_read: list[Callable[[float], list[Action]]] = []
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
@@ -345,7 +347,14 @@ class BridgeNode:
             "joint_states_published": self.published,
             "coalesced_commands": self._events.dropped,  # replaced by a later one before reaching the bus
         }
-        self._diagnostics_writer.write(self.bridge.diagnostics(time.time_ns(), self.prefix, self.hardware, stats))
+        array = self.bridge.diagnostics(time.time_ns(), self.prefix, self.hardware, stats)
+        self._diagnostics_writer.write(array)
+        self.record("/diagnostics", array)
+
+    def record(self, topic: str, message: Any) -> None:
+        """Hand a published message to the recorder, if there is one (--mcap)."""
+        if self.recorder is not None:
+            self.recorder(topic, message)
 
     def _report(self, kind: str, text: str) -> None:
         """stderr, but the same kind of trouble at most every LOG_REPEAT seconds."""
