@@ -23,6 +23,7 @@ def test_by_default_multicast_stays_on_peers_are_kept_and_logs_are_quiet() -> No
     domain = parsed({})
     assert domain.find("General") is None  # Cyclone's defaults: multicast on every usable interface
     assert domain.findtext("Discovery/InitialLocatorPruneDelay") == "inf"
+    assert domain.findtext("Discovery/SPDPInterval") == "1 s"  # a late node is found within a second
     assert domain.findtext("Tracing/Verbosity") == "severe"
     assert peers(domain) == []
 
