@@ -79,9 +79,9 @@ def start_bridge(ns: str, namespace: str, peers: list[str]) -> subprocess.Popen[
     env = environment(ROS_AUTOMATIC_DISCOVERY_RANGE="OFF", ROS_STATIC_PEERS=";".join(peers))
     argv = ["ip", "netns", "exec", ns, NURIMC, "--port", "sim://?ids=1", "ros2", "--ids", "1", "--namespace", namespace]
     process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    assert process.stdout is not None
+    assert process.stdout is not None and process.stderr is not None
     line = process.stdout.readline()
-    assert line.startswith("ready:"), line + (process.stderr.read() if process.poll() is not None else "")  # type: ignore[operator]
+    assert line.startswith("ready:"), line + (process.stderr.read() if process.poll() is not None else "")
     return process
 
 
