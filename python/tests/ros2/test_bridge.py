@@ -110,20 +110,48 @@ def test_shutdown_holds_turning_joints() -> None:
     assert b.shutdown() == [Hold(1)]
 
 
-def test_joint_state_has_fresh_readings_only_and_ros_units() -> None:
-    b = Bridge([1, 2], ["a", "b"])
+def test_joint_state_has_every_joint_in_order_with_a_stale_marker_and_ros_units() -> None:
+    b = Bridge([1, 2], ["a", "b"], frame_id="robot1/base_link")
     b.readings({1: state(1, 90.0, speed=60.0), 2: NoAnswer("request_position", 2, 9600, 3)})
     message = b.joint_state(1_500_000_000_123)
     assert message is not None
-    assert message.name == ["a"]
-    assert message.position == [pytest.approx(math.pi / 2)]
-    assert message.velocity == [pytest.approx(2 * math.pi)]  # 60 RPM
-    assert message.effort == [0.4]  # amperes
+    assert message.name == ["a", "b"]  # b never answered: there all the same, every value NaN
+    assert message.position[0] == pytest.approx(math.pi / 2) and math.isnan(message.position[1])
+    assert message.velocity[0] == pytest.approx(2 * math.pi)  # 60 RPM
+    assert math.isnan(message.velocity[1]) and math.isnan(message.effort[1])
+    assert message.effort[0] == 0.4  # amperes
     assert (message.header.stamp.sec, message.header.stamp.nanosec) == (1500, 123)
-    b.readings({1: state(1, 80.0, speed=60.0), 2: state(2, 0.0)})  # moving backwards: velocity is negative
+    assert message.header.frame_id == "robot1/base_link"
+    b.readings({1: state(1, 80.0, speed=60.0), 2: state(2, 45.0)})  # moving backwards: velocity is negative
     message = b.joint_state(0)
     assert message is not None and message.name == ["a", "b"]
     assert message.velocity[0] == pytest.approx(-2 * math.pi)
+    assert message.position[1] == pytest.approx(math.pi / 4) and message.velocity[1] == 0.0
+    # b stops answering: its last good position stays, velocity and effort turn NaN (the marker)
+    b.readings({1: state(1, 80.0), 2: NoAnswer("request_position", 2, 9600, 3)})
+    message = b.joint_state(0)
+    assert message is not None and message.name == ["a", "b"]
+    assert message.position[1] == pytest.approx(math.pi / 4)
+    assert math.isnan(message.velocity[1]) and math.isnan(message.effort[1])
+    assert not math.isnan(message.velocity[0])
+    b.readings({1: state(1, 80.0), 2: state(2, 0.0)})  # back: fresh values again
+    message = b.joint_state(0)
+    assert message is not None and message.position[1] == 0.0 and message.effort[1] == 0.4
+
+
+def test_effort_in_newton_metres_with_a_torque_constant() -> None:
+    b = Bridge([1, 2], ["a", "b"], torque_constants=[0.5, 2.0])
+    b.readings({1: state(1, 0.0), 2: state(2, 0.0)})
+    message = b.joint_state(0)
+    assert message is not None and message.effort == [pytest.approx(0.2), pytest.approx(0.8)]  # 0.4 A each
+
+
+@pytest.mark.parametrize(
+    ("constants", "why"), [([1.0], "1 torque constants for 2 motors"), ([1.0, 0.0], "torque constant 0.0")]
+)
+def test_a_wrong_torque_constant_is_refused(constants: list[float], why: str) -> None:
+    with pytest.raises(ValueError, match=why):
+        Bridge([1, 2], ["a", "b"], torque_constants=constants)
 
 
 def test_a_signed_speed_is_published_as_read() -> None:
@@ -156,6 +184,13 @@ def test_diagnostics_per_motor_and_bus() -> None:
     values = {kv.key: kv.value for kv in by_name["nurimc/arm: bus"].values}
     assert values["requests"] == "7" and values["estop_latched"] == "false"
     assert by_name["nurimc/arm: bus"].level == msgs.DIAGNOSTIC_WARN
+    b.readings({1: state(1, 0.0), 2: state(2, 0.0)})
+    b.readings({1: state(1, 0.0), 2: NoAnswer("request_position", 2, 9600, 3)})
+    b.readings({1: state(1, 0.0), 2: NoAnswer("request_position", 2, 9600, 3)})
+    status = {s.name: s for s in b.diagnostics(0, "p", "h", {}).status}["p: b"]
+    assert status.message.startswith("stale (2 readings missed; joint_states keeps the last position")
+    values = {kv.key: kv.value for kv in status.values}
+    assert values["stale"] == "true" and values["missed_in_a_row"] == "2" and values["failed_reads"] == "3"
 
 
 @pytest.mark.parametrize(

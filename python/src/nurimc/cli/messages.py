@@ -183,6 +183,13 @@ PATTERNS: tuple[str, ...] = (
     "--joint-names gives {n} names for {m} motors: give one per ID",
     "--joint-names: a name is empty",
     "--joint-names: the names must differ",
+    "--frame-prefix {value}: use letters, digits, _ and /, not starting with / (e.g. robot1/)",
+    "{option} {text}: give numbers separated by commas, one per joint (e.g. 0.12,0.12)",
+    "{n} torque constants for {m} motors",
+    "torque constant {value}: give N·m/A > 0 (at most 1000), one per joint",
+    "stopped before any motor answered: {error}",
+    "ROS_AUTOMATIC_DISCOVERY_RANGE={value}: give one of {choices} (or leave it unset: SUBNET)",
+    "ROS_STATIC_PEERS: {value} is not an address or host name; give them separated by ';' (e.g. 192.168.1.10;robot2.local)",
     # a line of a file ({line} is a line number: digits only, nurimc.cli.i18n)
     "{where} line {line}: {problem}",
     "{name}: {value} is not a number (ASCII digits only); give {wanted}",

@@ -12,6 +12,7 @@ from typing import Any
 import typer
 
 from ..client.sync import Bus
+from ..errors import NurimcError
 from .common import EXIT_DEVICE, FramePrinter, Number, Options, err, fail, options, out, parse_ids
 from .i18n import tr
 from .motion import RAMP
@@ -94,14 +95,27 @@ def motor_ids(o: Options, ids_text: str | None, bus: Bus) -> list[int]:
     return sorted(f.id for f in found)
 
 
-def wait_for_signal(stop: threading.Event, seconds: float | None) -> None:
-    """Until SIGINT / SIGTERM (or `seconds`, if given)."""
+def install_stop_signals() -> threading.Event:
+    """An event that SIGINT / SIGTERM set (from now on, instead of interrupting)."""
+    stop = threading.Event()
 
     def on_signal(signum: int, frame: Any) -> None:
         stop.set()
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    return stop
+
+
+def wait_for_signal(stop: threading.Event, seconds: float | None, signalled: threading.Event | None = None) -> None:
+    """Until SIGINT / SIGTERM (or `seconds`, if given), or `stop` is set (e.g. the bridge ended)."""
+    signalled = signalled or install_stop_signals()
+
+    def relay() -> None:
+        signalled.wait()
+        stop.set()
+
+    threading.Thread(target=relay, daemon=True).start()
     stop.wait(seconds)
 
 
@@ -175,6 +189,17 @@ def ros2(
     ),
     odom_frame: str = typer.Option("odom", "--odom-frame", help="Frame id of the odometry."),
     base_frame: str = typer.Option("base_link", "--base-frame", help="Frame id of the base."),
+    no_odom_tf: bool = typer.Option(
+        False, "--no-odom-tf", help="Publish odom but not the odom -> base transform on /tf (e.g. robot_localization)."
+    ),
+    frame_prefix: str = typer.Option(
+        "", "--frame-prefix", help="Put before every frame id, e.g. robot1/ (two robots on one /tf)."
+    ),
+    torque_constants: str = typer.Option(
+        None,
+        "--torque-constants",
+        help="N·m/A per joint in --ids order, e.g. 0.12,0.12: effort in N·m (default: amperes).",
+    ),
 ) -> None:
     """Publish joint_states and /diagnostics; obey position_commands, velocity_commands and estop (ROS 2 over DDS).
 
@@ -199,6 +224,8 @@ def ros2(
         control_commands = topic_option("--control-commands-topic", control_commands, ns)
         control_states = topic_option("--control-states-topic", control_states, ns)
         base_ids = _base_ids(diff_drive, wheel_radius, wheel_separation)
+        prefix = _frame_prefix(frame_prefix)
+        constants = _numbers("--torque-constants", torque_constants) if torque_constants else None
         if base_ids and not ids and not o.ids:
             ids = ",".join(map(str, base_ids))
     except (NameError_, ValueError) as error:
@@ -220,25 +247,36 @@ def ros2(
         motor_list = motor_ids(o, ids, bus)
         try:
             names = make_joint_names(joint_names, motor_list)
-            bridge = Bridge(motor_list, names, command_timeout, move_velocity, ramp)
+            bridge = Bridge(
+                motor_list, names, command_timeout, move_velocity, ramp,
+                frame_id=prefix + base_frame, torque_constants=constants,
+            )  # fmt: skip
             base = None
             if base_ids:
                 base = diffdrive.BaseConfig(
                     base_ids[0], base_ids[1], wheel_radius, wheel_separation, left_inverted, right_inverted,
                     max_linear, max_angular, max_linear_accel, max_angular_accel, command_timeout,
-                    odom_frame, base_frame,
+                    prefix + odom_frame, prefix + base_frame,
                 )  # fmt: skip
                 diffdrive.DiffDrive(bridge, base)  # checks the set-up before DDS is touched
             participant = Participant(domain)
         except ValueError as error:
             fail(str(error))
         node = BridgeNode(bus, bridge, participant, ns, rate, o.product, broadcast_read, recorder, node_name=node_name)
+        if recorder is not None:  # odom, /tf and /diagnostics too, besides joint_states and the frames
+            node.recorder = recorder.write
         control_topics.attach(node, control_commands, control_states)
         if base is not None:
-            diffdrive.attach(node, base, stamped)
+            diffdrive.attach(node, base, stamped, odom_tf=not no_odom_tf)
         if not isinstance(bus, AttachedBus):  # our own port (not attached to a holder): shared with others
             holding = share_bus(node, bus, o, motor_list)  # docs/service.md
-        node.prepare()
+        stop = install_stop_signals()
+        try:
+            node.prepare(stop=stop)  # a failed first reading is retried (a line each time) until Ctrl-C
+        except NurimcError as error:
+            if stop.is_set():
+                fail(f"stopped before any motor answered: {error}", EXIT_DEVICE)
+            raise
         joints = ", ".join(f"{n}=ID {i}" for n, i in zip(names, motor_list, strict=True))
         out.print(
             f"ready: domain {domain}, node {topic(ns, node_name)}, {node.joint_states_topic} ({joints}); commands on "
@@ -248,7 +286,7 @@ def ros2(
             soft_wrap=True,
         )
         node.start()
-        wait_for_signal(node.done, seconds)
+        wait_for_signal(node.done, seconds, stop)
         node.stop()
         if node.failure:
             fail(node.failure, EXIT_DEVICE)
@@ -287,6 +325,21 @@ def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:
 
     node.on_states.append(offer)
     return holding
+
+
+def _frame_prefix(text: str) -> str:
+    """--frame-prefix: letters, digits, _ and / (tf2 frame ids), not starting with /."""
+    if text and (text.startswith("/") or not all(c.isascii() and (c.isalnum() or c in "_/") for c in text)):
+        raise ValueError(f"--frame-prefix {text!r}: use letters, digits, _ and /, not starting with / (e.g. robot1/)")
+    return text
+
+
+def _numbers(option: str, text: str) -> list[float]:
+    """A comma-separated list of numbers (checked further by whoever takes them)."""
+    try:
+        return [float(item) for item in text.split(",")]
+    except ValueError:
+        raise ValueError(f"{option} {text}: give numbers separated by commas, one per joint (e.g. 0.12,0.12)") from None
 
 
 def _base_ids(text: str | None, radius: float | None, separation: float | None) -> list[int]:

@@ -23,9 +23,17 @@ from mcap.writer import CompressionType, Writer
 from .. import __version__
 from ..protocol import StreamParser, wire_bytes
 from ..ros2 import msgs
+from ..ros2.typehash import type_hash
 from .checkpoint import CheckpointFailed, CheckpointStream, checkpoint, finish
 
 FRAMES_TOPIC = "/nurimc/frames"
+_INFINITE = "\n    sec: 9223372036\n    nsec: 854775807"  # RMW_DURATION_INFINITE, as rosbag2 writes it
+#: rosbag2's YAML of the QoS every topic is offered with here: ROS 2's default profile (ros2/dds.py)
+OFFERED_QOS = (
+    "- history: keep_last\n  depth: 10\n  reliability: reliable\n  durability: volatile\n"
+    f"  deadline:{_INFINITE}\n  lifespan:{_INFINITE}\n  liveliness: automatic\n"
+    f"  liveliness_lease_duration:{_INFINITE}\n  avoid_ros_namespace_conventions: false"
+)
 
 
 class McapRecorder:
@@ -99,15 +107,19 @@ class McapRecorder:
         )
         self.failed = f"cannot write {self.path}: {error.strerror or error}; {after}"
 
-    def _channel(self, topic: str, ros_type: str) -> int:
+    def _channel(self, topic: str, ros_type: str, data_type: type[IdlStruct] | None = None) -> int:
         key = (topic, ros_type)
         if key not in self._channels:
             if ros_type not in self._schemas:
                 self._schemas[ros_type] = self._writer.register_schema(
                     name=ros_type, encoding="ros2msg", data=msgs.definition(ros_type).encode()
                 )
+            # as rosbag2 (Jazzy) writes a channel: the QoS offered on the topic and the type's RIHS01 hash
+            metadata = {"offered_qos_profiles": OFFERED_QOS}
+            if data_type is not None:
+                metadata["topic_type_hash"] = type_hash(data_type)
             self._channels[key] = self._writer.register_channel(
-                topic=topic, message_encoding="cdr", schema_id=self._schemas[ros_type]
+                topic=topic, message_encoding="cdr", schema_id=self._schemas[ros_type], metadata=metadata
             )
         return self._channels[key]
 
@@ -118,7 +130,7 @@ class McapRecorder:
         with self._lock:
             if self._closed:
                 return
-            channel = self._channel(topic, msgs.ros_type_of(message))
+            channel = self._channel(topic, msgs.ros_type_of(message), type(message))
             self._writer.add_message(channel_id=channel, log_time=t, data=data, publish_time=t)
             self.counts[topic] = self.counts.get(topic, 0) + 1
 

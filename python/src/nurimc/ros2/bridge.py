@@ -12,6 +12,10 @@ the bus, and publishes the messages it builds. Rules:
   its position) when no velocity command has come for `command_timeout` seconds (0 = never).
 - E-stop true releases every motor (control off) and latches: commands are refused until
   estop false arrives. The next command after that turns control on again.
+- Every JointState names every joint, in `--ids` order. A joint whose latest reading failed
+  keeps its last good position, with velocity and effort NaN: the stale marker (a joint never
+  read has NaN position too); /diagnostics says why and since when (docs/ros2.md, "Stale joints").
+- Effort is amperes, or N·m for a joint given a torque constant (N·m/A).
 """
 
 from __future__ import annotations
@@ -79,6 +83,7 @@ class Joint:
     sign: float = 1.0  # direction of travel between the last two readings
     reads: int = 0
     failures: int = 0
+    missed: int = 0  # readings failed in a row (0 = the latest answered)
     error: str = ""
 
     def signed_rpm(self) -> float:
@@ -106,6 +111,8 @@ class Bridge:
     ramp: float = DEFAULT_RAMP
     estop_latched: bool = False
     counters: Counters = field(default_factory=Counters)
+    frame_id: str = ""  # header.frame_id of joint_states (e.g. "<prefix>base_link")
+    torque_constants: Sequence[float] | None = None  # N·m/A per joint: effort in N·m instead of A
     joints: list[Joint] = field(init=False)
     fresh: list[Joint] = field(init=False, default_factory=list)  # read in the latest round
 
@@ -122,6 +129,12 @@ class Bridge:
                 f"move velocity {self.move_velocity} rad/s: give "
                 f"{rpm_to_rad_s(MIN_RPM):.4f}..{rpm_to_rad_s(MAX_RPM):.1f} rad/s"
             )
+        if self.torque_constants is not None:
+            if len(self.torque_constants) != len(self.ids):
+                raise ValueError(f"{len(self.torque_constants)} torque constants for {len(self.ids)} motors")
+            for value in self.torque_constants:
+                if not (math.isfinite(value) and 0 < value <= 1000):
+                    raise ValueError(f"torque constant {value}: give N·m/A > 0 (at most 1000), one per joint")
         self.joints = [Joint(i, n) for i, n in zip(self.ids, self.names, strict=True)]
 
     # -- commands ----------------------------------------------------------------------
@@ -228,35 +241,53 @@ class Bridge:
             if result is None or isinstance(result, Exception):
                 result = result or RuntimeError(f"ID {joint.id} did not answer the group read")
                 joint.failures += 1
+                joint.missed += 1
                 joint.error = str(result)
                 continue
             if joint.state is not None and result.position != joint.state.position:
                 joint.sign = 1.0 if result.position > joint.state.position else -1.0
             joint.state = result
             joint.reads += 1
+            joint.missed = 0
             joint.error = ""
             self.fresh.append(joint)
 
     def joint_state(self, stamp_ns: int) -> msgs.JointState | None:
-        """JointState of the joints read in the latest round; a joint that did not answer is left out
-        (never an old value), and its error shows in the diagnostics. None if none answered."""
-        read = self.fresh
-        if not read:
+        """JointState of every joint in the fixed (--ids) order, or None if none answered this round.
+
+        A joint that did not answer this round is stale: its last good position, velocity and
+        effort NaN (position NaN too if it was never read); /diagnostics explains."""
+        if not self.fresh:
             return None
+        position, velocity, effort = [], [], []
+        for index, joint in enumerate(self.joints):
+            state = joint.state
+            position.append(deg_to_rad(state.position) if state is not None else math.nan)
+            if state is None or joint.missed:
+                velocity.append(math.nan)
+                effort.append(math.nan)
+                continue
+            velocity.append(rpm_to_rad_s(joint.signed_rpm()))
+            kt = self.torque_constants[index] if self.torque_constants is not None else 1.0
+            effort.append(state.current * kt)
         return msgs.JointState(
-            header=msgs.Header(stamp=msgs.Time.from_ns(stamp_ns)),
-            name=[j.name for j in read],
-            position=[deg_to_rad(j.state.position) for j in read if j.state],
-            velocity=[rpm_to_rad_s(j.signed_rpm()) for j in read if j.state],
-            effort=[j.state.current for j in read if j.state],
+            header=msgs.Header(stamp=msgs.Time.from_ns(stamp_ns), frame_id=self.frame_id),
+            name=list(self.names),
+            position=position,
+            velocity=velocity,
+            effort=effort,
         )
 
     def diagnostics(self, stamp_ns: int, prefix: str, hardware: str, bus: Mapping[str, object]) -> msgs.DiagnosticArray:
         """One status per motor (reachable or not, its error) and one for the bus (statistics)."""
         statuses = []
         for joint in self.joints:
-            if joint.error:
-                level, message = msgs.DIAGNOSTIC_ERROR, joint.error
+            if joint.error and joint.state is not None:
+                level = msgs.DIAGNOSTIC_ERROR
+                message = f"stale ({joint.missed} readings missed; joint_states keeps the last position, "
+                message += f"velocity and effort NaN): {joint.error}"
+            elif joint.error:
+                level, message = msgs.DIAGNOSTIC_ERROR, f"never read (joint_states: NaN): {joint.error}"
             elif joint.state is None:
                 level, message = msgs.DIAGNOSTIC_STALE, "not read yet"
             elif self.estop_latched:
@@ -271,6 +302,8 @@ class Bridge:
                 "mode": joint.mode,
                 "reads": joint.reads,
                 "failed_reads": joint.failures,
+                "missed_in_a_row": joint.missed,
+                "stale": joint.missed > 0 or joint.state is None,
             }
             if joint.state is not None:
                 values |= {

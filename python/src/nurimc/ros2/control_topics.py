@@ -135,7 +135,8 @@ def attach(node: Any, commands_topic: str, states_topic: str) -> JointCommands:
     def on_data(reader: Any) -> None:
         for sample in reader.take(N=64):
             if isinstance(sample, msgs.JointState):
-                node.call_on_bus_thread(_command(logic, sample))
+                # latest wins per set of joints (coalesce.py): a 1 kHz controller costs no backlog
+                node.call_on_bus_thread(_command(logic, sample), key="control:" + ",".join(sorted(sample.name)))
 
     node.participant.reader(commands_topic, msgs.JointState, on_data)
     previous = node.sink

@@ -23,6 +23,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
+from .ddsconfig import generated_config
 from .names import dds_topic
 from .typehash import user_data
 
@@ -54,9 +55,13 @@ def domain_id(environ: dict[str, str] | None = None) -> int:
 
 
 def domain_config(environ: dict[str, str] | None = None) -> str:
-    """The user's CYCLONEDDS_URI (files or XML, comma-separated) followed by our compatibility setting."""
-    user = (os.environ if environ is None else environ).get("CYCLONEDDS_URI", "").strip()
-    return f"{user},{FAST_DDS_NAME_MATCHING}" if user else FAST_DDS_NAME_MATCHING
+    """Our generated configuration (ddsconfig.py: ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_STATIC_PEERS, kept
+    peers, quiet logs), then the user's CYCLONEDDS_URI (files or XML, comma-separated; it overrides
+    ours), then our compatibility setting."""
+    env = os.environ if environ is None else environ
+    user = env.get("CYCLONEDDS_URI", "").strip()
+    parts = [generated_config(env), *([user] if user else []), FAST_DDS_NAME_MATCHING]
+    return ",".join(parts)
 
 
 def default_qos() -> Qos:

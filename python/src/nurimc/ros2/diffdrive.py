@@ -261,12 +261,14 @@ class DiffDrive:
         return odom, TFMessage([transform])
 
 
-def attach(node: Any, config: BaseConfig, stamped: bool = False) -> DiffDrive:
-    """Subscribe `cmd_vel` (Twist, or TwistStamped), publish `odom` and `/tf` after every reading."""
+def attach(node: Any, config: BaseConfig, stamped: bool = False, odom_tf: bool = True) -> DiffDrive:
+    """Subscribe `cmd_vel` (Twist, or TwistStamped), publish `odom` and (unless `odom_tf` is False:
+    --no-odom-tf, e.g. when robot_localization publishes it) `/tf` after every reading."""
     base = DiffDrive(node.bridge, config)
     participant = node.participant
-    odom_writer = participant.writer(topic(node.namespace, "odom"), Odometry)
-    tf_writer = participant.writer("/tf", TFMessage)
+    odom_topic = topic(node.namespace, "odom")
+    odom_writer = participant.writer(odom_topic, Odometry)
+    tf_writer = participant.writer("/tf", TFMessage) if odom_tf else None
     diagnostics_writer = participant.writer("/diagnostics", DiagnosticArray)
     next_status = [0.0]
     command_type = TwistStamped if stamped else Twist
@@ -276,19 +278,28 @@ def attach(node: Any, config: BaseConfig, stamped: bool = False) -> DiffDrive:
             twist = sample.twist if isinstance(sample, TwistStamped) else sample
             if isinstance(twist, Twist):
                 linear, angular = twist.linear.x, twist.angular.z
-                node.call_on_bus_thread(lambda now, v=linear, w=angular: base.command(v, w, now))
+                node.call_on_bus_thread(lambda now, v=linear, w=angular: base.command(v, w, now), key="cmd_vel")
 
     participant.reader(topic(node.namespace, "cmd_vel"), command_type, on_data)
+
+    def record(name: str, message: Any) -> None:
+        if getattr(node, "recorder", None) is not None:
+            node.recorder(name, message)
 
     def after_read(now: float) -> list[Action]:
         if base.update_odometry():
             odom, tf = base.odometry(time.time_ns())
             odom_writer.write(odom)
-            tf_writer.write(tf)
+            record(odom_topic, odom)
+            if tf_writer is not None:
+                tf_writer.write(tf)
+                record("/tf", tf)
         if now >= next_status[0]:  # 1 Hz, beside the bridge's own statuses
             next_status[0] = now + 1.0
             stamp = Header(stamp=Time.from_ns(time.time_ns()))
-            diagnostics_writer.write(DiagnosticArray(header=stamp, status=[base.status(node.prefix)]))
+            array = DiagnosticArray(header=stamp, status=[base.status(node.prefix)])
+            diagnostics_writer.write(array)
+            record("/diagnostics", array)
         return base.tick(now)
 
     node.after_read.append(after_read)

@@ -2,7 +2,10 @@
 
 DDS delivers commands on Cyclone's own threads; they are queued here and the bus thread
 carries them out between readings, so a command waits at most for the reading under way.
-An estop drops every command queued before it and goes first.
+An estop drops every command queued before it and goes first. Commands coalesce (coalesce.py):
+the latest motion command replaces one still queued, so a flood costs no backlog; a reading or
+/diagnostics that is due goes before queued commands (never before an estop), so a flood does not
+starve joint_states either.
 """
 
 from __future__ import annotations
@@ -11,7 +14,6 @@ import math
 import sys
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from typing import Any, Protocol
 
@@ -26,12 +28,14 @@ from ..service.backoff import Backoff, read_state_once
 from ..service.stop import StopResult, emergency_stop
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
+from .coalesce import CommandQueue
 from .dds import Participant
 from .graph import NodeAnnouncer
 from .names import topic
 
 DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
 DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
+FIRST_READING_RETRY = 1.0  # s between two tries of the first reading when no motor answers
 LOG_REPEAT = 2.0  # s between two reports of the same kind of trouble on stderr
 
 
@@ -80,7 +84,7 @@ class BridgeNode:
         self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
         self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
         self.published = 0
-        self._events: deque[tuple[str, Any]] = deque()
+        self._events = CommandQueue()
         self._wake = threading.Condition()
         self._stopping = False
         self._thread: threading.Thread | None = None
@@ -93,6 +97,8 @@ class BridgeNode:
             participant.reader(topic(namespace, "velocity_commands"), msgs.Float64MultiArray, self._queue("velocity")),
             participant.reader(topic(namespace, "estop"), msgs.Bool, self._queue("estop")),
         ]
+        #: also given every other message published (diagnostics, odom, /tf): an MCAP recorder's write()
+        self.recorder: Callable[[str, Any], None] | None = None
         #: called on the bus thread after each reading is published (ros2_control topics, mobile base)
         self.after_read: list[Callable[[float], list[Action]]] = []
         self.silent = Backoff()  # motors that stopped answering (docs/service.md)
@@ -112,24 +118,28 @@ class BridgeNode:
 
         return on_data
 
-    def call_on_bus_thread(self, work: Callable[[float], list[Action]]) -> None:
-        """Queue work (from a DDS thread) that returns the actions to carry out; an estop drops it."""
-        self._push("call", work)
+    def call_on_bus_thread(self, work: Callable[[float], list[Action]], key: str | None = None) -> None:
+        """Queue work (from a DDS thread) that returns the actions to carry out; an estop drops it.
+        Work with a key replaces queued work of the same key (latest wins: coalesce.py)."""
+        self._push("call", work, key)
 
-    def _push(self, kind: str, value: Any) -> None:
+    def _push(self, kind: str, value: Any, key: str | None = None) -> None:
         with self._wake:
-            if kind == "estop":
-                # A stop wins over everything queued before it; estops keep their order among themselves.
-                kept = [e for e in self._events if e[0] == "estop"]
-                self._events.clear()
-                self._events.extend(kept)
-            self._events.append((kind, value))
+            # A stop wins over everything queued before it; the latest motion command wins (coalesce.py).
+            self._events.push(kind, value, key)
             self._wake.notify()
 
     # -- life --------------------------------------------------------------------------------
-    def prepare(self, discovery_wait: float = DISCOVERY_WAIT) -> dict[int, MotorState | Exception]:
+    def prepare(
+        self,
+        discovery_wait: float = DISCOVERY_WAIT,
+        stop: threading.Event | None = None,
+        retry: float = FIRST_READING_RETRY,
+    ) -> dict[int, MotorState | Exception]:
         """Refuse a namespace another bridge already serves; stagger for broadcast reads if asked; a first
-        reading (raises if no motor answers)."""
+        reading. With `stop`, a first reading that no motor answers is retried every `retry` seconds
+        (a line on stderr each time, at most every LOG_REPEAT s) until one answers or `stop` is set
+        (then the error is raised); without it the error is raised at once."""
         if discovery_wait and self.participant.other_writers(self.joint_states_topic, msgs.JointState, discovery_wait):
             raise NamespaceTaken(
                 f"another program already publishes {self.joint_states_topic} on DDS domain "
@@ -138,10 +148,28 @@ class BridgeNode:
         procedures = [m.procedures for m in self.motors.values()]
         if self.broadcast_read:
             self.slot = self.bus.run(stagger(procedures, self.bus.baudrate))
-        results = self.bus.run(read_states(procedures))
-        if all(isinstance(r, Exception) for r in results.values()):
+        attempt = 1
+        while True:
+            try:
+                results = self.bus.run(read_states(procedures))
+            except NurimcError as port_error:  # the port itself: every motor gets the error
+                results = {device_id: port_error for device_id in self.motors}
+            if not all(isinstance(r, Exception) for r in results.values()):
+                break
             first = next(iter(results.values()))
-            raise first if isinstance(first, NurimcError) else NurimcError(str(first))
+            failure = first if isinstance(first, NurimcError) else NurimcError(str(first))
+            if stop is None or stop.is_set():
+                raise failure
+            self._report(
+                "first",
+                f"first reading failed (attempt {attempt}): {failure}; retrying every {retry:g} s until a motor "
+                "answers (Ctrl-C to stop)",
+            )
+            attempt += 1
+            if stop.wait(retry):
+                raise failure
+        if attempt > 1:
+            self._log(f"first reading succeeded on attempt {attempt}")
         for device_id, result in results.items():
             if isinstance(result, Exception):
                 self._log(f"warning: ID {device_id}: {result}")
@@ -180,17 +208,21 @@ class BridgeNode:
     def _loop(self) -> None:
         next_read = time.monotonic()
         next_diagnostics = next_read
+        just_read = False
         while True:
             with self._wake:
                 if self._stopping:
                     break
-                event = self._events.popleft() if self._events else None
-                if event is None:
-                    now = time.monotonic()
-                    wake_at = min(next_read, next_diagnostics, self.bridge.next_expiry() or math.inf)
-                    if wake_at > now:
-                        self._wake.wait(wake_at - now)
-                        continue
+                now = time.monotonic()
+                wake_at = min(next_read, next_diagnostics, self.bridge.next_expiry() or math.inf)
+                # an estop first; then a reading, diagnostics or timeout that is due; then commands
+                # (--rate 0 reads all the time: a reading and a command take turns)
+                first = self._events.has_estop() or wake_at > now or (not self.period and just_read)
+                event = self._events.pop() if first else None
+                just_read = False
+                if event is None and wake_at > now:
+                    self._wake.wait(wake_at - now)
+                    continue
             now = time.monotonic()
             if self.outage.returned():  # before anything else: stops owed, fresh states
                 self._resume()
@@ -200,6 +232,7 @@ class BridgeNode:
             self._carry_out(self.bridge.expire(now))
             if now >= next_read:
                 self.read_and_publish()
+                just_read = True
                 next_read = max(next_read + self.period, time.monotonic()) if self.period else time.monotonic()
                 if self.outage.down:  # no reading can succeed: look again later, not in a busy loop
                     next_read = max(next_read, time.monotonic() + self.outage.recheck)
@@ -327,8 +360,16 @@ class BridgeNode:
             "baudrate": self.bus.baudrate,
             "port": self.bus.transport.url,
             "joint_states_published": self.published,
+            "coalesced_commands": self._events.dropped,  # replaced by a later one before reaching the bus
         }
-        self._diagnostics_writer.write(self.bridge.diagnostics(time.time_ns(), self.prefix, self.hardware, stats))
+        array = self.bridge.diagnostics(time.time_ns(), self.prefix, self.hardware, stats)
+        self._diagnostics_writer.write(array)
+        self.record("/diagnostics", array)
+
+    def record(self, topic: str, message: Any) -> None:
+        """Hand a published message to the recorder, if there is one (--mcap)."""
+        if self.recorder is not None:
+            self.recorder(topic, message)
 
     def _report(self, kind: str, text: str) -> None:
         """stderr, but the same kind of trouble at most every LOG_REPEAT seconds."""

@@ -208,11 +208,37 @@ def base(probe: Probe) -> dict:
     return out
 
 
+def restart(probe: Probe) -> dict:
+    """A node that outlives two bridges: as soon as each one's joint_states arrive, one position
+    command (published once, as a user's node does it); the time from the command to the joint there.
+    Says "phase <n> done" on stdout after each, so the test can restart the bridge."""
+    node, ns, out = probe.node, probe.ns, {"reach_s": []}
+    positions = node.create_publisher(Float64MultiArray, f"{ns}/position_commands", 10)
+    for phase, target in enumerate((math.pi / 2, math.pi / 4)):  # the second bridge starts at 0
+        count = len(probe.states)
+        if not probe.spin(60, until=lambda count=count: len(probe.states) > count):
+            out["reach_s"].append(None)
+            break
+        sent = time.monotonic()
+        out.setdefault("matched_at_publish", []).append(positions.get_subscription_count())
+        positions.publish(Float64MultiArray(data=[target]))
+        reached = probe.spin(10, until=lambda target=target: abs(probe.last().position[0] - target) <= 0.002)
+        out["reach_s"].append(round(time.monotonic() - sent, 3) if reached else None)
+        print(f"phase {phase} done", flush=True)
+        if phase == 0:  # until that bridge is gone: no joint_states for 0.5 s
+            while True:
+                count = len(probe.states)
+                probe.spin(0.5)
+                if len(probe.states) == count:
+                    break
+    return out
+
+
 def main() -> None:
     scenario, namespace = sys.argv[1], sys.argv[2]
     probe = Probe(namespace)
     try:
-        result = {"arm": arm, "base": base}[scenario](probe)
+        result = {"arm": arm, "base": base, "restart": restart}[scenario](probe)
     finally:
         probe.node.destroy_node()
         rclpy.shutdown()
