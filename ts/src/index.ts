@@ -20,5 +20,6 @@ export * from "./parser.js";
 export { type WebSerialDevice, WebSerialPort } from "./ports/webserial.js";
 export type * from "./schema.js";
 export * from "./settings.js";
+export * from "./stepfigures.js";
 export * as units from "./units.js";
 export { type SignedWire, UnitRangeError } from "./units.js";
