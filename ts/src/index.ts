@@ -9,6 +9,7 @@ export * from "./bus/port.js";
 export * from "./bus/reconnect.js";
 export * from "./bus/timing.js";
 export * from "./codec.js";
+export * from "./discovery.js";
 export * from "./errors.js";
 export { buildFrame, checksum, fromHex, toHex } from "./frame.js";
 export * from "./generated/host.js";
