@@ -3,6 +3,7 @@
  * Environment-neutral (Node and browsers); the Node serial port is in "nurimc/node".
  */
 
+export * from "./backup.js";
 export * from "./bus/client.js";
 export * from "./bus/errors.js";
 export * from "./bus/port.js";
