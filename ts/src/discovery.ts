@@ -314,3 +314,42 @@ async function detectLine(port: BytePort, id: number, timing: Timing, signal: Ab
   }
   return "unknown";
 }
+
+/**
+ * A command of a product line other than MC (the bus client speaks MC's table): written in
+ * turn with every other call, never before a stop sent earlier. E.g. the E-STOP's control off
+ * to an RSA (its mode 0A, not MC's 0C).
+ */
+export function tellInLine(
+  bus: Bus,
+  line: string,
+  name: string,
+  id: number,
+  fields: Readonly<Record<string, unknown>> = {},
+): Promise<void> {
+  const frame = encodeIn(line, makeIn(line, name, id, fields));
+  return bus.withPort((port) => port.write(frame));
+}
+
+/** A request of a product line, its answer in that line's layout; null if none came (after the retries). */
+export function askInLine(
+  bus: Bus,
+  line: string,
+  name: string,
+  id: number,
+  fields: Readonly<Record<string, unknown>> = {},
+): Promise<Message | null> {
+  const spec = lineMessageSpec(line, name);
+  const answerSpec = lineMessageSpec(line, spec.answer as string);
+  const frame = encodeIn(line, makeIn(line, name, id, fields));
+  return bus.withPort(async (port, stop) => {
+    const window = answerDeadlineMs(spec.size + 4, answerSpec.size + 4, port.baudRate, undefined, bus.timing);
+    const mine = (m: Message): boolean => m.id === id && m.name === answerSpec.name;
+    for (let attempt = 0; attempt <= bus.retries; attempt++) {
+      const heard = await exchange(port, frame, lineParser(line), window, window, stop, (m) => m.some(mine));
+      const answer = heard.messages.find(mine);
+      if (answer !== undefined) return answer;
+    }
+    return null;
+  });
+}

@@ -1,8 +1,10 @@
 import { MAX_ID } from "./core/limits.js";
+import { DIRECT_OPS, directOp } from "./direct-ops.js";
 
 // Direct mode: no server; the page drives the bus itself through Web Serial and the TypeScript
-// library (nurimc.browser.js next to this page). It offers the same requests as the server for
-// discovery at one rate, live state, motion and the emergency stop, with the same safety rules:
+// library (nurimc.browser.js next to this page). It offers the same requests as the server
+// (direct-ops.js: discovery across rates with product lines, settings, step response, backup and
+// restore, ID / baud / factory reset), each motor at the rate it was found at, with the same safety rules:
 // the stop jumps the client's queue (Bus.emergency: everything queued is cancelled, nothing of
 // a motion begun before it is sent after it) and is verified by reading every motor's control
 // back, sent again to a motor that does not read off, for up to ESTOP_VERIFY_MS.
@@ -16,12 +18,14 @@ export class DirectLink {
     this.handlers = new Map();
     this.motors = new Map();
     this.found = new Set();
+    this.known = new Map(); // id -> {id, baudrate, firmware, line}: where each motor answers
     this.watched = [];
     this.origin = performance.now();
   }
 
   async connect() {
     const device = await navigator.serial.requestPort();
+    this.device = device;
     const port = await this.lib.WebSerialPort.open(device, this.baudRate);
     this.frames = null; // the raw view's capture, when on
     this.bus = new this.lib.Bus(port, { onTraffic: (event) => this.traffic(event) });
@@ -60,13 +64,40 @@ export class DirectLink {
     return this.motors.get(id);
   }
 
+  /** Where a motor answers and its line (discovery's find; the bus's rate if not found yet). */
+  target(id) {
+    return this.known.get(id) ?? { id, baudrate: this.bus.baudRate, firmware: null, line: "mc" };
+  }
+
+  /** The motor's handle, with the bus at the motor's rate; only MC-line motors are driven here. */
+  async at(id) {
+    const target = this.target(id);
+    if (target.line !== "mc" && target.line !== "unknown")
+      throw new Error(
+        `ID ${id} speaks the ${target.line} line: reading and writing it needs the Python console (nurimc dashboard) in this version`,
+      );
+    if (this.bus.baudRate !== target.baudrate) await this.bus.setBaudRate(target.baudrate);
+    return this.motor(id);
+  }
+
+  forget(id) {
+    this.known.delete(id);
+    this.found.delete(id);
+    this.motors.delete(id);
+    this.watched = this.watched.filter((w) => w !== id);
+  }
+
+  knownList() {
+    return [...this.known.values()].sort((a, b) => a.id - b.id);
+  }
+
   async poll() {
     while (this.connected) {
       const started = performance.now();
       const rows = [];
       for (const id of this.watched) {
         try {
-          const s = await this.motor(id).readState();
+          const s = await (await this.at(id)).readState();
           rows.push([id, (performance.now() - this.origin) / 1000, s.position, s.speed, s.current, s.devicePosition]);
         } catch (error) {
           if (error.name !== "CancelledError") this.emit("motor_error", { id, message: error.message, kind: "error" });
@@ -80,99 +111,84 @@ export class DirectLink {
   }
 
   info(id) {
-    return { id, baudrate: this.baudRate, firmware: null };
-  }
-
-  async discover(ids) {
-    const found = [];
-    const candidates = ids ?? Array.from({ length: MAX_ID + 1 }, (_, id) => id);
-    for (const [index, id] of candidates.entries()) {
-      if (index % 8 === 0)
-        this.emit("progress", {
-          rate: this.baudRate,
-          index: 0,
-          total: 1,
-          walking_id: id,
-          found: found.map((m) => m.id),
-          motors: found,
-        });
-      try {
-        await this.bus.request(this.lib.make("request_ping", id, {}), { retries: 0 });
-      } catch (error) {
-        if (error.name === "NoAnswerError" || error.name === "ControllerBusyError") continue;
-        throw error;
-      }
-      const info = this.info(id);
-      info.firmware = await this.motor(id)
-        .get("firmware")
-        .catch(() => null);
-      found.push(info);
-      this.found.add(id);
-      this.emit("progress", {
-        rate: this.baudRate,
-        index: 0,
-        total: 1,
-        walking_id: id,
-        found: found.map((m) => m.id),
-        motors: found,
-      });
-    }
-    return { motors: found };
+    return { id, baudrate: this.bus?.baudRate ?? this.baudRate, firmware: null };
   }
 
   async request(op, args = {}) {
+    if (DIRECT_OPS.has(op)) return directOp(this, op, args);
     switch (op) {
-      case "discover":
-        return this.discover(args.ids ?? null);
       case "watch":
         this.watched = args.ids;
         return { watching: args.ids };
       case "move": {
         const travel = args.rpm != null ? { rpm: args.rpm } : { seconds: args.seconds };
-        const motor = this.motor(args.id);
+        const motor = await this.at(args.id);
         await (args.relative ? motor.moveBy(args.degrees, travel) : motor.moveTo(args.degrees, travel));
         return { id: args.id };
       }
       case "run":
-        await this.motor(args.id).run(args.rpm, args.ramp ?? 0.5);
+        await (await this.at(args.id)).run(args.rpm, args.ramp ?? 0.5);
         return { id: args.id };
       case "release":
-        await this.motor(args.id).release();
+        await (await this.at(args.id)).release();
         return { id: args.id };
       case "hold":
-        await this.motor(args.id).hold();
+        await (await this.at(args.id)).hold();
         return { id: args.id };
-      case "read_settings":
-        return { settings: { control: await this.motor(args.id).get("control") } };
       case "frames":
         this.frames = args.on ? [] : null;
         return { on: Boolean(args.on), recent: [] };
       case "estop":
         return this.emergencyStop();
       default:
-        throw new Error(`${op} needs the server in this version: run \`nurimc dashboard\` and open its address`);
+        throw new Error(`${op} is not available in direct mode: run \`nurimc dashboard\` and open its address`);
     }
   }
 
-  /** Control off to every motor (broadcast), ahead of everything queued; then each known motor read back. */
+  /** Control off to every motor (broadcast), ahead of everything queued, at the bus's rate and then at
+   * every other rate a motor was found at; then each known motor read back at its rate. */
   async emergencyStop() {
     const off = (id) => this.lib.make("set_control", id, { control: 1 });
+    const first = this.bus.baudRate;
     await this.bus.emergency(off(this.lib.BROADCAST_ID));
+    const rates = [first, ...new Set([...this.known.values()].map((k) => k.baudrate).filter((r) => r !== first))];
+    const linesAt = (rate) => new Set([...this.known.values()].filter((k) => k.baudrate === rate).map((k) => k.line));
+    for (const [index, rate] of rates.entries()) {
+      if (index > 0) {
+        await this.bus.setBaudRate(rate);
+        await this.bus.emergency(off(this.lib.BROADCAST_ID));
+      }
+      for (const line of linesAt(rate)) // each other line's own control-off (RSA: 0A, not MC's 0C)
+        if (line !== "mc" && line !== "unknown")
+          await this.lib.tellInLine(this.bus, line, "set_control", this.lib.BROADCAST_ID, { control: 1 });
+    }
     const ids = [...new Set([...this.found, ...this.watched, ...this.motors.keys()])].filter((id) => id <= MAX_ID);
     const deadline = performance.now() + ESTOP_VERIFY_MS;
     const control = {};
     for (const id of ids) {
+      const rate = this.target(id).baudrate;
+      if (this.bus.baudRate !== rate) await this.bus.setBaudRate(rate);
+      const line = this.target(id).line;
+      const mc = line === "mc" || line === "unknown";
       for (;;) {
         try {
-          control[id] = await this.motor(id).get("control");
+          if (mc) control[id] = await this.motor(id).get("control");
+          else {
+            const answer = await this.lib.askInLine(this.bus, line, "request_control", id);
+            control[id] = answer === null ? "unknown: no answer" : answer.control === 1 ? "off" : "on";
+          }
         } catch (error) {
           control[id] = `unknown: ${error.message}`;
         }
         if (control[id] === "off" || performance.now() >= deadline) break;
-        await this.bus.send(off(id)).catch(() => {}); // not off yet (busy, or a frame lost): tell it again
+        // not off yet (busy, or a frame lost): tell it again, in its own line
+        const again = mc
+          ? this.bus.send(off(id))
+          : this.lib.tellInLine(this.bus, line, "set_control", id, { control: 1 });
+        await again.catch(() => {});
       }
     }
-    const result = { rates: [this.baudRate], control, verified: Object.values(control).every((c) => c === "off") };
+    const result = { rates, control, verified: Object.values(control).every((c) => c === "off") };
     this.emit("estop", result);
     return result;
   }
