@@ -43,7 +43,7 @@ test("the Korean catalog is Korean (Hangul in every entry that has words, apart 
     if (
       /[A-Za-z]{3,}/.test(
         text.replace(
-          /\{\w+\}|<\/?\w+>|nurimc\.browser\.js|nurimc-sequence\/1|nurimc( dashboard)?|Web Serial|Chrome|Edge|https?:\/\/|localhost|JSON|CSV|PNG|EEPROM|RPM|bps|Kp|Ki|Kd|BLMC-H|RSAVW|RSA|MC|Esc|Shift|ID|CCW|CW|--port|nurimc\.browser\.js|docs\/dashboard\.md|nurimc-sequence\/1|ms|µs/g,
+          /\{\w+\}|<\/?\w+>|nurimc\.browser\.js|nurimc-sequence\/1|nurimc( dashboard)?|Web Serial|Python|ChromeOS|Chromium|Chrome|Edge|Firefox|Safari|Windows|macOS|Linux|USB-RS485|https?:\/\/|localhost|JSON|CSV|PNG|EEPROM|RPM|bps|Kp|Ki|Kd|BLMC-H|RSAVW|RSA|MC|Esc|Shift|ID|CCW|CW|--port|nurimc\.browser\.js|docs\/dashboard\.md|nurimc-sequence\/1|ms|µs/g,
           "",
         ),
       )

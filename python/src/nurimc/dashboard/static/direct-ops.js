@@ -239,3 +239,21 @@ async function changeBaud(link, id, rate) {
   }
   throw new Error(`ID ${id} is lost after the baud change: no answer at any rate; check wiring and power`);
 }
+
+/** The settings editor's catalogue, as the server gives it (dashboard/commands.py, settings_catalogue). */
+export function settingsCatalogue(lib) {
+  return lib.SETTINGS.map((s) => {
+    const choices = Object.values(s.values);
+    return {
+      name: s.name,
+      doc: s.doc,
+      unit: s.unit,
+      range: lib.describeSetting(s),
+      choices,
+      min: choices.length ? null : s.physicalMin,
+      max: choices.length ? null : s.physicalMax,
+      step: s.wireUnit ? s.scale : 1,
+      writable: s.command !== null,
+    };
+  });
+}
