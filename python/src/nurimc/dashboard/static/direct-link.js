@@ -19,6 +19,7 @@ export class DirectLink {
     this.motors = new Map();
     this.found = new Set();
     this.known = new Map(); // id -> {id, baudrate, firmware, line}: where each motor answers
+    this.chain = Promise.resolve(); // one operation at a time: a rate switch and its requests go together
     this.watched = [];
     this.origin = performance.now();
   }
@@ -28,7 +29,12 @@ export class DirectLink {
     this.device = device;
     const port = await this.lib.WebSerialPort.open(device, this.baudRate);
     this.frames = null; // the raw view's capture, when on
-    this.bus = new this.lib.Bus(port, { onTraffic: (event) => this.traffic(event) });
+    this.bus = new this.lib.Bus(port, {
+      onTraffic: (event) => this.traffic(event),
+      // a USB adapter's latency (FTDI's 16 ms timer) and the browser's own scheduling: the
+      // deadlines of an unknown adapter, as the Python library gives a real port (spec/host.json)
+      timing: { latencyMs: this.lib.HOST_TIMING.usbAdapterLatencyMs },
+    });
     this.connected = true;
     this.poll();
     return this;
@@ -80,6 +86,17 @@ export class DirectLink {
     return this.motor(id);
   }
 
+  /** Run `task` after every operation begun before it (the E-STOP's broadcast never waits for this). */
+  serial(task) {
+    const stops = this.bus.stops; // an operation asked for before a stop never starts after it
+    const run = this.chain.then(() => {
+      this.bus.assertNoStopSince(stops);
+      return task();
+    });
+    this.chain = run.catch(() => undefined);
+    return run;
+  }
+
   forget(id) {
     this.known.delete(id);
     this.found.delete(id);
@@ -96,8 +113,9 @@ export class DirectLink {
       const started = performance.now();
       const rows = [];
       for (const id of this.watched) {
+        if (!["mc", "unknown"].includes(this.target(id).line)) continue; // live state of MC-line motors only
         try {
-          const s = await (await this.at(id)).readState();
+          const s = await this.serial(async () => (await this.at(id)).readState());
           rows.push([id, (performance.now() - this.origin) / 1000, s.position, s.speed, s.current, s.devicePosition]);
         } catch (error) {
           if (error.name !== "CancelledError") this.emit("motor_error", { id, message: error.message, kind: "error" });
@@ -115,25 +133,27 @@ export class DirectLink {
   }
 
   async request(op, args = {}) {
-    if (DIRECT_OPS.has(op)) return directOp(this, op, args);
+    if (DIRECT_OPS.has(op)) return this.serial(() => directOp(this, op, args));
     switch (op) {
       case "watch":
         this.watched = args.ids;
         return { watching: args.ids };
       case "move": {
         const travel = args.rpm != null ? { rpm: args.rpm } : { seconds: args.seconds };
-        const motor = await this.at(args.id);
-        await (args.relative ? motor.moveBy(args.degrees, travel) : motor.moveTo(args.degrees, travel));
+        await this.serial(async () => {
+          const motor = await this.at(args.id);
+          await (args.relative ? motor.moveBy(args.degrees, travel) : motor.moveTo(args.degrees, travel));
+        });
         return { id: args.id };
       }
       case "run":
-        await (await this.at(args.id)).run(args.rpm, args.ramp ?? 0.5);
+        await this.serial(async () => (await this.at(args.id)).run(args.rpm, args.ramp ?? 0.5));
         return { id: args.id };
       case "release":
-        await (await this.at(args.id)).release();
+        await this.serial(async () => (await this.at(args.id)).release());
         return { id: args.id };
       case "hold":
-        await (await this.at(args.id)).hold();
+        await this.serial(async () => (await this.at(args.id)).hold());
         return { id: args.id };
       case "frames":
         this.frames = args.on ? [] : null;
@@ -151,6 +171,12 @@ export class DirectLink {
     const off = (id) => this.lib.make("set_control", id, { control: 1 });
     const first = this.bus.baudRate;
     await this.bus.emergency(off(this.lib.BROADCAST_ID));
+    return this.serial(() => this.verifyStop(first));
+  }
+
+  /** The stop at the other rates and lines, then each motor read back (told again until off). */
+  async verifyStop(first) {
+    const off = (id) => this.lib.make("set_control", id, { control: 1 });
     const rates = [first, ...new Set([...this.known.values()].map((k) => k.baudrate).filter((r) => r !== first))];
     const linesAt = (rate) => new Set([...this.known.values()].filter((k) => k.baudrate === rate).map((k) => k.line));
     for (const [index, rate] of rates.entries()) {
