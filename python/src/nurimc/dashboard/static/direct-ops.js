@@ -55,8 +55,17 @@ export async function directOp(link, op, args) {
     case "step":
       return step(link, args);
     case "backup": {
+      // the MC line's settings are read here; another line's are said to need the Python console
       const targets = args.ids.map((id) => link.target(id));
-      return lib.makeBackup(link.bus, targets);
+      const mc = targets.filter((t) => t.line === "mc" || t.line === "unknown");
+      for (const t of targets.filter((t) => !mc.includes(t)))
+        link.emit("motor_error", {
+          id: t.id,
+          kind: "info",
+          message: `not in this backup: it speaks the ${t.line} line, whose settings the Python console (nurimc backup) saves in this version`,
+        });
+      if (!mc.length) throw new Error("backup: none of these motors is of the MC line; use nurimc backup for the others");
+      return lib.makeBackup(link.bus, mc);
     }
     case "restore": {
       const name = args.name ?? "backup";
