@@ -22,6 +22,7 @@ import { join } from "node:path";
 import { after, before, test } from "node:test";
 import { promisify } from "node:util";
 import { launchBrowser, NURIMC_BIN, ROOT } from "./lib.mjs";
+import { startBridge } from "./serial-bridge.mjs";
 
 const run = promisify(execFile);
 const SITE = join(ROOT, "site");
@@ -67,67 +68,6 @@ const cli = (...args) =>
 
 const simState = () => JSON.parse(readFileSync(join(STATE, "bus.json"), "utf8"));
 
-// Before any page script: a navigator.serial whose port carries real bytes (through Node).
-const SERIAL_BRIDGE = () => {
-  let push = null;
-  let streams = null;
-  window.__serialData = (bytes) => {
-    try {
-      push?.enqueue(new Uint8Array(bytes));
-    } catch {
-      /* closed between rates */
-    }
-  };
-  const port = {
-    get readable() {
-      return streams?.readable ?? null;
-    },
-    get writable() {
-      return streams?.writable ?? null;
-    },
-    getInfo: () => ({ usbVendorId: 0x0403, usbProductId: 0x6001 }),
-    open: async (options) => {
-      await window.__serialOpen(options.baudRate);
-      window.__serialOpened = options;
-      streams = {
-        readable: new ReadableStream({
-          start(controller) {
-            push = controller;
-          },
-        }),
-        writable: new WritableStream({ write: (chunk) => window.__serialWrite([...chunk]) }),
-      };
-    },
-    close: async () => {
-      try {
-        push?.close();
-      } catch {
-        /* already */
-      }
-      push = null;
-      streams = null;
-    },
-  };
-  Object.defineProperty(navigator, "serial", {
-    value: { requestPort: async () => port, getPorts: async () => [port] },
-  });
-};
-
-/** Node's end of the bridge: the simulator's pty at the rate the page opens its port at. */
-async function startBridge(p) {
-  const { NodeSerialPort } = await import(join(ROOT, "ts/dist/node.js"));
-  const state = { port: null };
-  await p.exposeFunction("__serialOpen", async (rate) => {
-    if (state.port === null) {
-      state.port = await NodeSerialPort.open(LINK, rate);
-      state.port.onData((chunk) => p.evaluate((bytes) => window.__serialData(bytes), [...chunk]).catch(() => {}));
-    } else await state.port.setBaudRate(rate);
-  });
-  await p.exposeFunction("__serialWrite", (bytes) => state.port?.write(Uint8Array.from(bytes)));
-  await p.addInitScript(SERIAL_BRIDGE);
-  return { close: () => state.port?.close() };
-}
-
 function watch(p) {
   p.on("console", (m) => {
     if (m.type() === "error") problems.push(`console: ${m.text()}`);
@@ -142,9 +82,10 @@ async function until(fn, arg, ms = 30000) {
     await page.waitForFunction(fn, arg, { timeout: ms });
   } catch (error) {
     const shown = await page.evaluate(async () => ({
-      direct: await window.dashboard.link
-        .request("read_settings", { id: 3 })
-        .then((r) => JSON.stringify(r).slice(0, 200), (e) => `error ${e.message}`),
+      direct: await window.dashboard.link.request("read_settings", { id: 3 }).then(
+        (r) => JSON.stringify(r).slice(0, 200),
+        (e) => `error ${e.message}`,
+      ),
       rows: document.querySelectorAll("#settings-table tbody tr").length,
       kpRow: document.querySelector("#setting-position-kp")?.outerHTML.slice(0, 300),
       messages: document.querySelector("#messages")?.textContent,
@@ -159,7 +100,20 @@ before(async () => {
   assert.ok(existsSync(join(SITE, "index.html")), "site/ is built by `make site`");
   const simulator = spawn(
     NURIMC_BIN,
-    ["sim", "--link", LINK, ...MOTORS.flatMap((m) => ["--motor", m]), "--ids", "", "--baud", "57600", "--tcp", "0", "--state", STATE],
+    [
+      "sim",
+      "--link",
+      LINK,
+      ...MOTORS.flatMap((m) => ["--motor", m]),
+      "--ids",
+      "",
+      "--baud",
+      "57600",
+      "--tcp",
+      "0",
+      "--state",
+      STATE,
+    ],
     { stdio: ["ignore", "pipe", "pipe"] },
   );
   sim = { stop: () => simulator.kill("SIGTERM") };
@@ -170,7 +124,7 @@ before(async () => {
   page = await browser.newPage();
   page.setDefaultTimeout(30000);
   watch(page);
-  bridge = await startBridge(page);
+  bridge = await startBridge(page, LINK);
 });
 
 after(async () => {
@@ -183,15 +137,27 @@ after(async () => {
 test("the site alone finds three controllers of two lines at three rates, with progress", async () => {
   await page.goto(url);
   await page.waitForFunction(() => window.dashboard?.mode === "direct" && !document.querySelector("#connect").disabled);
-  assert.equal(await page.getAttribute("html", "data-site-version"), readFileSync(join(SITE, "version.js"), "utf8").match(/"(\w+)"/)[1]);
+  assert.equal(
+    await page.getAttribute("html", "data-site-version"),
+    readFileSync(join(SITE, "version.js"), "utf8").match(/"(\w+)"/)[1],
+  );
   await page.click("#connect"); // at the default 9600: none of the three is there
   await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found, null, { timeout: 90000 });
   assert.equal(await page.getAttribute("#discover-text", "data-found"), "3,7,12");
   assert.ok((await page.evaluate(() => window.dashboard.progressEvents)) >= 18, "progress for every rate");
   const subtitles = await page.$$eval(".card", (cards) => cards.map((c) => c.textContent));
-  assert.match(subtitles.find((s) => s.includes("57600")), /MC or BLMC-H/);
-  assert.match(subtitles.find((s) => s.includes("38400")), /RSA or SA/);
-  assert.match(subtitles.find((s) => s.includes("250000")), /MC or BLMC-H/);
+  assert.match(
+    subtitles.find((s) => s.includes("57600")),
+    /MC or BLMC-H/,
+  );
+  assert.match(
+    subtitles.find((s) => s.includes("38400")),
+    /RSA or SA/,
+  );
+  assert.match(
+    subtitles.find((s) => s.includes("250000")),
+    /MC or BLMC-H/,
+  );
 });
 
 test("a gain written in the settings view is shown verified, and the simulator's state agrees", async () => {
@@ -203,7 +169,11 @@ test("a gain written in the settings view is shown verified, and the simulator's
   await page.waitForFunction(() => document.querySelector("#setting-position-kp .result").className.includes("ok"));
   assert.match(await page.textContent("#setting-position-kp .result"), /77/);
   const slots = JSON.stringify(simState());
-  assert.match(slots, /"kp":\s*77|"position_kp":\s*77/, `the simulator's state file holds kp 77: ${slots.slice(0, 400)}`);
+  assert.match(
+    slots,
+    /"kp":\s*77|"position_kp":\s*77/,
+    `the simulator's state file holds kp 77: ${slots.slice(0, 400)}`,
+  );
 });
 
 test("a step response shows its figures", async () => {
@@ -247,22 +217,41 @@ test("a browser backup is restored by `nurimc restore`, and a `nurimc backup` is
   await page.evaluate(() => window.dashboard.link.request("set", { id: 3, name: "position-kp", value: 41 }));
   await page.setInputFiles("#restore-file", cliFile);
   await page.waitForFunction(() => /position-kp/.test(document.querySelector("#backup-text").textContent));
-  const kp = await page.evaluate(async () => (await window.dashboard.link.request("read_settings", { id: 3 })).settings["position-kp"]);
+  const kp = await page.evaluate(
+    async () => (await window.dashboard.link.request("read_settings", { id: 3 })).settings["position-kp"],
+  );
   assert.equal(kp, 77);
-  assert.equal(await page.evaluate(() => Object.keys(localStorage).filter((k) => k.startsWith("nurimc.restore")).length), 0, "the journal is cleared");
+  assert.equal(
+    await page.evaluate(() => Object.keys(localStorage).filter((k) => k.startsWith("nurimc.restore")).length),
+    0,
+    "the journal is cleared",
+  );
 });
 
 test("a garbled backup and a file of another product line are refused, nothing written", async () => {
-  const before = await page.evaluate(async () => (await window.dashboard.link.request("read_settings", { id: 7 })).settings).catch((e) => e.message);
-  await page.setInputFiles("#restore-file", { name: "garbled.json", mimeType: "application/json", buffer: Buffer.from('{"format": "nurimc-backup/1", "motors": [{"id": 3, "se') });
+  const before = await page
+    .evaluate(async () => (await window.dashboard.link.request("read_settings", { id: 7 })).settings)
+    .catch((e) => e.message);
+  await page.setInputFiles("#restore-file", {
+    name: "garbled.json",
+    mimeType: "application/json",
+    buffer: Buffer.from('{"format": "nurimc-backup/1", "motors": [{"id": 3, "se'),
+  });
   await page.waitForFunction(() => /garbled\.json/.test(document.querySelector("#messages").textContent));
   const cliDoc = JSON.parse(readFileSync(join(DIR, "cli-backup.json"), "utf8"));
   const other = { ...cliDoc, motors: [{ ...cliDoc.motors[0], id: 7 }] }; // an MC backup onto the RSA
-  await page.setInputFiles("#restore-file", { name: "other-line.json", mimeType: "application/json", buffer: Buffer.from(JSON.stringify(other)) });
+  await page.setInputFiles("#restore-file", {
+    name: "other-line.json",
+    mimeType: "application/json",
+    buffer: Buffer.from(JSON.stringify(other)),
+  });
   await page.waitForFunction(() => /another product line/.test(document.querySelector("#messages").textContent));
   assert.ok(typeof before === "string", "the RSA is not read as an MC in direct mode: it says why");
   assert.match(await messages(), /nothing was written/);
-  assert.equal(await page.evaluate(() => Object.keys(localStorage).filter((k) => k.startsWith("nurimc.restore")).length), 0);
+  assert.equal(
+    await page.evaluate(() => Object.keys(localStorage).filter((k) => k.startsWith("nurimc.restore")).length),
+    0,
+  );
 });
 
 test("an ID change in the setup view, then the motor is found at its new ID", async () => {
@@ -270,7 +259,11 @@ test("an ID change in the setup view, then the motor is found at its new ID", as
   await page.selectOption("#setup-motor", "12");
   await page.fill("#new-id", "20");
   await page.click("#change-id");
-  await page.waitForFunction(() => /20/.test(document.querySelector("#setup-text").textContent) && !/…|\.\.\./.test(document.querySelector("#setup-text").textContent));
+  await page.waitForFunction(
+    () =>
+      /20/.test(document.querySelector("#setup-text").textContent) &&
+      !/…|\.\.\./.test(document.querySelector("#setup-text").textContent),
+  );
   await view("motors");
   await page.selectOption("#discover-rates", "250000");
   await page.click("#discover");
@@ -284,7 +277,11 @@ test("the E-STOP turns every motor off, at every rate and in each line", async (
   await page.waitForFunction(() => (document.querySelector("#estop").dataset.lastResult ?? "").startsWith("{"), null, {
     timeout: 20000,
   });
-  assert.deepEqual(JSON.parse(await page.getAttribute("#estop", "data-last-result")), { 3: "off", 7: "off", 20: "off" });
+  assert.deepEqual(JSON.parse(await page.getAttribute("#estop", "data-last-result")), {
+    3: "off",
+    7: "off",
+    20: "off",
+  });
 });
 
 test("installable; a reload with the server stopped still opens the page; a new version is picked up and said", async () => {
@@ -322,5 +319,8 @@ test("a browser without navigator.serial (Firefox, Safari) sees which browsers w
   assert.match(text, /Edge/);
   assert.match(text, /nurimc dashboard/);
   await other.close();
-  assert.deepEqual(problems.filter((p) => !/Failed to load resource/.test(p)), []);
+  assert.deepEqual(
+    problems.filter((p) => !/Failed to load resource/.test(p)),
+    [],
+  );
 });

@@ -64,7 +64,8 @@ export async function directOp(link, op, args) {
           kind: "info",
           message: `not in this backup: it speaks the ${t.line} line, whose settings the Python console (nurimc backup) saves in this version`,
         });
-      if (!mc.length) throw new Error("backup: none of these motors is of the MC line; use nurimc backup for the others");
+      if (!mc.length)
+        throw new Error("backup: none of these motors is of the MC line; use nurimc backup for the others");
       return lib.makeBackup(link.bus, mc);
     }
     case "restore": {
