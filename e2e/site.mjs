@@ -254,6 +254,18 @@ test("a garbled backup and a file of another product line are refused, nothing w
   );
 });
 
+test("a restore left unfinished (the tab closed mid-restore) is said after the next discovery", async () => {
+  // what restoreBackup leaves in localStorage when the page goes away between its mark and its end
+  await page.evaluate(() =>
+    localStorage.setItem("nurimc.restore.usb-1027-24577.id3", JSON.stringify({ file: "robot.json", since: 0 })),
+  );
+  await view("motors");
+  await page.selectOption("#discover-rates", "57600");
+  await page.click("#discover");
+  await until(() => /incomplete restore of robot\.json/.test(document.querySelector("#messages").textContent));
+  await page.evaluate(() => localStorage.removeItem("nurimc.restore.usb-1027-24577.id3"));
+});
+
 test("an ID change in the setup view, then the motor is found at its new ID", async () => {
   await view("setup");
   await page.selectOption("#setup-motor", "12");

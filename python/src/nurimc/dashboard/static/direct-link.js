@@ -19,6 +19,7 @@ export class DirectLink {
     this.motors = new Map();
     this.found = new Set();
     this.known = new Map(); // id -> {id, baudrate, firmware, line}: where each motor answers
+    this.forgotten = new Set();
     this.chain = Promise.resolve(); // one operation at a time: a rate switch and its requests go together
     this.watched = [];
     this.origin = performance.now();
@@ -98,6 +99,7 @@ export class DirectLink {
   }
 
   forget(id) {
+    this.forgotten.add(id); // gone from this ID (new ID, factory reset): not read back by the E-STOP
     this.known.delete(id);
     this.found.delete(id);
     this.motors.delete(id);
@@ -113,6 +115,7 @@ export class DirectLink {
       const started = performance.now();
       const rows = [];
       for (const id of this.watched) {
+        if (!this.watched.includes(id)) continue; // forgotten meanwhile (new ID, factory reset)
         if (!["mc", "unknown"].includes(this.target(id).line)) continue; // live state of MC-line motors only
         try {
           const s = await this.serial(async () => (await this.at(id)).readState());
@@ -188,7 +191,11 @@ export class DirectLink {
         if (line !== "mc" && line !== "unknown")
           await this.lib.tellInLine(this.bus, line, "set_control", this.lib.BROADCAST_ID, { control: 1 });
     }
-    const ids = [...new Set([...this.found, ...this.watched, ...this.motors.keys()])].filter((id) => id <= MAX_ID);
+    // every motor found (at its rate), and any other watched or driven since (at the bus's rate)
+    const known = [...this.known.keys()];
+    const ids = [...new Set([...known, ...this.watched, ...this.motors.keys()])].filter(
+      (id) => id <= MAX_ID && (this.known.has(id) || !this.forgotten.has(id)),
+    );
     const deadline = performance.now() + ESTOP_VERIFY_MS;
     const control = {};
     for (const id of ids) {

@@ -126,10 +126,18 @@ async function discover(link, rates) {
   const scanned = rates ? new Set(rates) : null;
   for (const [id, known] of link.known) if (!scanned || scanned.has(known.baudrate)) link.known.delete(id);
   for (const f of list(found)) if (!f.collision) link.known.set(f.id, f);
+  for (const id of link.known.keys()) link.forgotten.delete(id);
   for (const id of link.known.keys()) link.found.add(id);
   link.watched = [...link.known.keys()].sort((a, b) => a - b);
   const known = link.knownList();
   link.emit("motors", { motors: known });
+  // a restore that stopped (the tab closed, the cable pulled) is said, as `nurimc restore` says it
+  for (const { id, file } of pendingRestores(link))
+    link.emit("motor_error", {
+      id,
+      kind: "info",
+      message: `incomplete restore of ${file}: restore it again (only what still differs is written)`,
+    });
   return { motors: list(found), known };
 }
 
