@@ -10,6 +10,17 @@ import { NURIMC_BIN, ROOT } from "./lib.mjs";
 export const SERIAL_BRIDGE = () => {
   let push = null;
   let streams = null;
+  let pulled = false;
+  const lost = () => new DOMException("The device has been lost.", "NetworkError");
+  // the USB cable pulled: reads fail, writes fail, the port cannot be opened again
+  window.__pullCable = () => {
+    pulled = true;
+    try {
+      push?.error(lost());
+    } catch {
+      /* closed already */
+    }
+  };
   window.__serialData = (bytes) => {
     try {
       push?.enqueue(new Uint8Array(bytes));
@@ -26,6 +37,7 @@ export const SERIAL_BRIDGE = () => {
     },
     getInfo: () => ({ usbVendorId: 0x0403, usbProductId: 0x6001 }),
     open: async (options) => {
+      if (pulled) throw lost();
       await window.__serialOpen(options.baudRate);
       window.__serialOpened ??= options; // the rate the user chose (discovery then tries the others)
       streams = {
@@ -34,7 +46,12 @@ export const SERIAL_BRIDGE = () => {
             push = controller;
           },
         }),
-        writable: new WritableStream({ write: (chunk) => window.__serialWrite([...chunk]) }),
+        writable: new WritableStream({
+          write: (chunk) => {
+            if (pulled) throw lost();
+            return window.__serialWrite([...chunk]);
+          },
+        }),
       };
     },
     close: async () => {

@@ -296,6 +296,20 @@ test("the E-STOP turns every motor off, at every rate and in each line", async (
   });
 });
 
+test("the cable pulled as a gain is written: a clear message on the row, nothing written", async () => {
+  await view("settings");
+  await page.selectOption("#settings-motor", "3");
+  await until(() => document.querySelector("#setting-position-kp .value")?.textContent.trim());
+  const before = JSON.stringify(simState());
+  await page.evaluate(() => window.__pullCable());
+  await page.fill("#setting-position-kp input", "99");
+  await page.click("#setting-position-kp .write button");
+  await until(() => document.querySelector("#setting-position-kp .result").className.includes("bad"));
+  assert.match(await page.textContent("#setting-position-kp .result"), /serial port|unplugged|closed/i);
+  assert.equal(JSON.stringify(simState()), before, "nothing was written");
+  assert.doesNotMatch(JSON.stringify(simState()), /"kp":\s*99|"position_kp":\s*99/);
+});
+
 test("installable; a reload with the server stopped still opens the page; a new version is picked up and said", async () => {
   const cdp = await page.context().newCDPSession(page);
   await page.evaluate(() => navigator.serviceWorker.ready);
