@@ -19,7 +19,8 @@ const fail = (message) => {
   process.exit(1);
 };
 if (!existsSync(BUNDLE)) fail(`${relative(ROOT, BUNDLE)} is missing: run make -f ts/Makefile.inc ts-build`);
-if (!existsSync(join(STATIC, "vendor/uplot/uPlot.esm.js"))) fail("uPlot is missing: run bash scripts/dashboard-assets.sh");
+if (!existsSync(join(STATIC, "vendor/uplot/uPlot.esm.js")))
+  fail("uPlot is missing: run bash scripts/dashboard-assets.sh");
 
 rmSync(OUT, { recursive: true, force: true });
 mkdirSync(OUT, { recursive: true });
