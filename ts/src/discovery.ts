@@ -157,7 +157,7 @@ export function walkWaitMs(rate: number, timing: Timing, spanMs: number | null):
   const char = wireTimeMs(1, rate);
   if (spanMs === null)
     return wireTimeMs(PING_LENGTH, rate) + WALK_RESPONSE_MS + 2 * timing.latencyMs + timing.marginMs + char;
-  return Math.max(spanMs - wireTimeMs(PING_LENGTH, rate), 0) + 2 * char + timing.latencyMs + timing.marginMs;
+  return Math.max(spanMs - wireTimeMs(PING_LENGTH, rate), 0) + 2 * char + timing.latencyMs;
 }
 
 /** Find controllers (see the module comment). Leaves the bus at its old rate. */
