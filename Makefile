@@ -125,6 +125,11 @@ dist: $(STAMP)  ## wheel + sdist (with the console's assets) and the npm tarball
 test-dist: dist  ## install what `make dist` built into a clean venv / scratch npm project and smoke-test it
 	$(PY) scripts/check_dist.py dist
 
+site:  ## the console as a static site in site/ (Web Serial, installable, offline): serve it with python3 -m http.server -d site
+	bash scripts/dashboard-assets.sh
+	$(MAKE) -f ts/Makefile.inc ts-build
+	node scripts/build-site.mjs
+
 # Every suite runs even after one fails (scripts/run_suites.py runs each as `make -k SUITE`); one
 # summary at the end (suites, passed/failed/skipped, time; logs in build/test-logs/), exit 1 if any failed.
 TEST_SUITES := check-generated lint test-python fuzz-python-short conformance test-c test-embedded test-sigrok test-ts test-e2e test-dist
@@ -140,5 +145,5 @@ bench: $(STAMP)  ## run every benchmark and record the results (benchmarks/resul
 	$(MAKE) -f ts/Makefile.inc ts-bench
 	$(MAKE) -f e2e/Makefile.inc e2e-rate
 
-.PHONY: help venv dashboard demo system-deps generate check-generated lint-python lint-tools lint-js lint-c lint \
+.PHONY: site help venv dashboard demo system-deps generate check-generated lint-python lint-tools lint-js lint-c lint \
   format test-python fuzz-python-short fuzz-python conformance test-c test-embedded test-sigrok test-ts test-e2e dist test-dist test bench

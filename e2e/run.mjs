@@ -4,7 +4,6 @@ import assert from "node:assert/strict";
 import { spawnSync } from "node:child_process";
 import { existsSync, mkdirSync, mkdtempSync, readFileSync } from "node:fs";
 import { request as httpRequest } from "node:http";
-import { connect } from "node:net";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { after, before, test } from "node:test";
@@ -17,9 +16,9 @@ import {
   ROOT,
   STATIC,
   startDashboard,
-  startSimulator,
   startStaticSite,
 } from "./lib.mjs";
+import { startBridge, startPtySimulator } from "./serial-bridge.mjs";
 
 // Screenshots go to docs/screenshots only when asked (make -f e2e/Makefile.inc screenshots),
 // so an ordinary test run leaves the work tree clean.
@@ -1081,50 +1080,19 @@ test("server killed: banner, controls off, E-STOP says unreachable at once; rest
   assert.ok(plot.x.at(-1) === 0 && plot.x.every((v, i) => i === 0 || v > plot.x[i - 1]), "the plot ends at now");
 });
 
-// A serial port for the page (navigator.serial) that carries real bytes: the page's writes go
-// to the simulator's TCP port (`nurimc sim --tcp 0`), its answers come back into the port's
-// readable stream. So direct mode runs end to end: Web Serial API -> TS client -> bytes -> simulator.
-const SERIAL_BRIDGE = () => {
-  let push = null;
-  const readable = new ReadableStream({
-    start(controller) {
-      push = controller;
-    },
-  });
-  window.__serialData = (bytes) => push.enqueue(new Uint8Array(bytes));
-  const writable = new WritableStream({
-    write: (chunk) => window.__serialWrite([...chunk]),
-  });
-  const port = {
-    readable,
-    writable,
-    open: async (options) => {
-      window.__serialOpened = options;
-    },
-    close: async () => {},
-  };
-  Object.defineProperty(navigator, "serial", {
-    value: { requestPort: async () => port, getPorts: async () => [port] },
-  });
-};
-
 test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 queued moves turns every motor off, confirmed", async () => {
   const bundle = join(ROOT, "ts/dist/nurimc.browser.js");
   assert.ok(existsSync(bundle), "ts/dist/nurimc.browser.js is built by `make -f ts/Makefile.inc ts-build`");
-  const [site, sim] = await Promise.all([startStaticSite(bundle), startSimulator("1,2,3", 115200)]);
-  const socket = connect(sim.port, "127.0.0.1");
-  await new Promise((resolve, reject) => socket.once("connect", resolve).once("error", reject));
+  const link = join(mkdtempSync(join(tmpdir(), "nurimc-direct-")), "bus");
+  const [site, sim] = await Promise.all([
+    startStaticSite(bundle),
+    startPtySimulator(link, ["--ids", "1,2,3", "--baud", "115200"]),
+  ]);
   const direct = await browser.newPage();
   direct.setDefaultTimeout(60000);
   watch(direct, problems);
+  const bridge = await startBridge(direct, link);
   try {
-    await direct.exposeFunction("__serialWrite", (bytes) => {
-      socket.write(Buffer.from(bytes));
-    });
-    socket.on("data", (chunk) => {
-      direct.evaluate((bytes) => window.__serialData(bytes), [...chunk]).catch(() => {});
-    });
-    await direct.addInitScript(SERIAL_BRIDGE);
     await direct.goto(site.url);
     await direct.waitForFunction(
       () => window.dashboard.mode === "direct" && !document.querySelector("#connect").disabled,
@@ -1191,7 +1159,7 @@ test("direct mode (Web Serial bridged to the simulator): an E-STOP behind 300 qu
     assert.ok(await direct.isVisible("#stop-banner"));
   } finally {
     await direct.close();
-    socket.destroy();
+    await bridge.close();
     sim.stop();
     site.stop();
   }

@@ -214,6 +214,8 @@ def host(rules: dict[str, Any]) -> str:
         f"  verifyMs: {ms(rules['stop']['verify_s'])},",
         f"  recheckMs: {ms(rules['stop']['recheck_s'])},",
         "} as const;",
+        "/** The order discovery searches the 18 rates, most likely first (spec/host.json, discovery). */",
+        f"export const DISCOVERY_RATE_ORDER: readonly number[] = {_js(rules['discovery']['rate_order'])};",
         "",
         "export const LIMITS = {",
         *[f"  {speclib.camel(k)[0].lower() + speclib.camel(k)[1:]}: {v}," for k, v in limits.items() if k != "source"],

@@ -29,13 +29,21 @@ test("every key is in both catalogs, with the same placeholders, none empty", ()
 });
 
 test("the Korean catalog is Korean (Hangul in every entry that has words, apart from units and names)", () => {
-  const exempt = new Set(["state.unknown", "seq.field.id", "seq.field.rpm", "plot.csv", "plot.png"]);
+  const exempt = new Set([
+    "state.unknown",
+    "seq.field.id",
+    "seq.field.rpm",
+    "plot.csv",
+    "plot.png",
+    "line.rsavw",
+    "line.sm",
+  ]); // product names
   for (const [key, text] of Object.entries(CATALOGS.ko)) {
     if (exempt.has(key)) continue;
     if (
       /[A-Za-z]{3,}/.test(
         text.replace(
-          /\{\w+\}|<\/?\w+>|nurimc\.browser\.js|nurimc-sequence\/1|nurimc( dashboard)?|Web Serial|Chrome|Edge|https?:\/\/|localhost|JSON|CSV|PNG|EEPROM|RPM|bps|Kp|Ki|Kd|BLMC-H|MC|Esc|Shift|ID|CCW|CW|--port|nurimc\.browser\.js|docs\/dashboard\.md|nurimc-sequence\/1|ms|µs/g,
+          /\{\w+\}|<\/?\w+>|nurimc\.browser\.js|nurimc-sequence\/1|nurimc( dashboard)?|Web Serial|Python|ChromeOS|Chromium|Chrome|Edge|Firefox|Safari|Windows|macOS|Linux|USB-RS485|https?:\/\/|localhost|JSON|CSV|PNG|EEPROM|RPM|bps|Kp|Ki|Kd|BLMC-H|RSAVW|RSA|MC|Esc|Shift|ID|CCW|CW|--port|nurimc\.browser\.js|docs\/dashboard\.md|nurimc-sequence\/1|ms|µs/g,
           "",
         ),
       )

@@ -127,3 +127,25 @@ test("a motor's badge: stopped until a command, busy, silent, off, moving, on", 
   assert.equal(motorState({ ...base, stopped: true, busy: 1, lastSampleAt: 1 }, 10.1), "stopped");
   assert.equal(motorState({ ...base, control: null }, 10.1), "unknown");
 });
+
+test("step figures: the shared vectors (spec/vectors/step-figures.json), as Python and the TS library", async () => {
+  const { readFile } = await import("node:fs/promises");
+  const url = new URL("../../spec/vectors/step-figures.json", import.meta.url);
+  const { cases } = JSON.parse(await readFile(url, "utf8"));
+  const near = (mine, theirs, tolerance, what) => {
+    assert.equal(mine === null, theirs === null, what);
+    if (mine !== null) assert.ok(Math.abs(mine - theirs) <= tolerance, `${what}: ${mine} vs ${theirs}`);
+  };
+  for (const c of cases) {
+    const f = stepFigures(c.times, c.positions, c.start, c.target);
+    if (c.error) {
+      assert.equal(f, null, c.name);
+      continue;
+    }
+    near(f.rise, c.expect.rise, 1e-9, `${c.name}: rise`);
+    near(f.settling, c.expect.settling, 1e-9, `${c.name}: settling`);
+    near(f.overshoot, c.expect.overshoot, 0.005, `${c.name}: overshoot`);
+    near(f.finalError, c.expect.final_error, 0.0005, `${c.name}: final error`);
+    assert.equal(f.settled, c.expect.settled, `${c.name}: settled`);
+  }
+});

@@ -84,3 +84,26 @@ describe("WebSerialPort", () => {
     await expect(port.write(new Uint8Array([1]))).rejects.toBeInstanceOf(PortError);
   });
 });
+
+describe("WebSerialPort on a stream that ends", () => {
+  it("stops reading when the readable ends, instead of taking new readers forever", async () => {
+    let readers = 0;
+    const ended = new ReadableStream<Uint8Array>({ start: (controller) => controller.close() });
+    const getReader = ended.getReader.bind(ended);
+    const device = {
+      readable: Object.assign(ended, {
+        getReader: () => {
+          readers += 1;
+          return getReader();
+        },
+      }),
+      writable: new WritableStream<Uint8Array>(),
+      open: () => Promise.resolve(),
+      close: () => Promise.resolve(),
+    } as unknown as WebSerialDevice;
+    const port = await WebSerialPort.open(device, 9600);
+    await new Promise((resolve) => setTimeout(resolve, 50)); // a spinning loop would have taken thousands
+    expect(readers).toBe(1);
+    await port.close();
+  });
+});

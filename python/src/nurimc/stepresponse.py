@@ -1,8 +1,11 @@
-"""Step-response figures: rise time, overshoot, settling, final error, current peak, oscillation.
+"""Step-response figures: rise time (10 % to 90 %), overshoot, settling into ±2 %, final error,
+and for the tuner the current peak and oscillation.
 
 Pure functions over recorded samples (no I/O): the console's step-response view and the tuner
-(nurimc.tuning) measure with the same rules. `analyse` is the console's original four figures;
-`response_figures` adds what a tuner needs.
+(nurimc.tuning) measure with the same rules. One definition for every language:
+spec/vectors/step-figures.json states it and holds cases that tell 90 % from 80 %, 10 % from 20 %
+and a 2 % band from a 5 % one; `analyse` here, the TypeScript library (ts/src/stepfigures.ts) and
+the console page (core/stepfigures.js) all run them. `response_figures` adds what a tuner needs.
 """
 
 from __future__ import annotations
@@ -10,8 +13,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-#: the settling band: within 2 % of the step from the target (or `min_band`, whichever is larger)
-SETTLE_SHARE = 0.02
+#: the settling band and the "settled" rule, as a fraction of the step (a tuner may widen the band
+#: to a reading's resolution or noise: response_figures' min_band)
+SETTLE_BAND = 0.02
+RISE_FROM, RISE_TO = 0.1, 0.9
 
 
 @dataclass(frozen=True, slots=True)
@@ -20,6 +25,7 @@ class StepFigures:
     overshoot: float  # percent of the step beyond the target (0 if none)
     settled: bool  # the last sample is within 2 % of the step from the target
     final_error: float  # degrees, target - last position
+    settling_time: float | None = None  # first sample of the last run inside ±2 % that lasts to the end
 
 
 def _progress(times: Sequence[float], values: Sequence[float], start: float, target: float) -> list[float]:
@@ -38,12 +44,19 @@ def _first_time(times: Sequence[float], progress: Sequence[float], level: float)
 def analyse(times: Sequence[float], positions: Sequence[float], start: float, target: float) -> StepFigures:
     """Figures of a step from `start` to `target` sampled as (times, positions)."""
     progress = _progress(times, positions, start, target)
-    t10, t90 = _first_time(times, progress, 0.1), _first_time(times, progress, 0.9)
+    step = target - start
+    t10, t90 = _first_time(times, progress, RISE_FROM), _first_time(times, progress, RISE_TO)
     rise = t90 - t10 if t10 is not None and t90 is not None else None
     overshoot = max(0.0, (max(progress) - 1.0) * 100.0)
     final_error = target - positions[-1]
-    step = target - start
-    return StepFigures(rise, round(overshoot, 2), abs(final_error) <= 0.02 * abs(step), round(final_error, 3))
+    settling: float | None = None
+    for t, x in zip(reversed(times), reversed(progress), strict=True):
+        if abs(1.0 - x) > SETTLE_BAND:
+            break
+        settling = t
+    return StepFigures(
+        rise, round(overshoot, 2), abs(final_error) <= SETTLE_BAND * abs(step), round(final_error, 3), settling
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,8 +97,8 @@ def response_figures(
     start. The settling band is 2 % of the step or `min_band` (a reading's resolution or noise)."""
     progress = _progress(times, values, start, target)
     step = abs(target - start)
-    band = max(SETTLE_SHARE, min_band / step)
-    t10, t90 = _first_time(times, progress, 0.1), _first_time(times, progress, 0.9)
+    band = max(SETTLE_BAND, min_band / step)
+    t10, t90 = _first_time(times, progress, RISE_FROM), _first_time(times, progress, RISE_TO)
     rise = t90 - t10 if t10 is not None and t90 is not None else None
     overshoot = max(0.0, (max(progress) - 1.0) * 100.0)
     settling: float | None = None
@@ -112,4 +125,4 @@ def response_figures(
     )
 
 
-__all__ = ["SETTLE_SHARE", "ResponseFigures", "StepFigures", "analyse", "response_figures"]
+__all__ = ["RISE_FROM", "RISE_TO", "SETTLE_BAND", "ResponseFigures", "StepFigures", "analyse", "response_figures"]

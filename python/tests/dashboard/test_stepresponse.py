@@ -1,8 +1,12 @@
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import Any
+
 import pytest
 
-from nurimc.dashboard.stepresponse import analyse
+from nurimc.stepresponse import analyse
 
 
 def test_rise_time_and_overshoot_of_an_upward_step() -> None:
@@ -30,3 +34,27 @@ def test_bad_input_is_refused() -> None:
         analyse([0.0], [1.0], 1.0, 1.0)
     with pytest.raises(ValueError, match="as many times as positions"):
         analyse([0.0, 1.0], [1.0], 0.0, 1.0)
+
+
+def _shared_cases() -> list[dict[str, Any]]:
+    path = Path(__file__).resolve().parents[3] / "spec" / "vectors" / "step-figures.json"
+    cases: list[dict[str, Any]] = json.loads(path.read_text(encoding="utf-8"))["cases"]
+    return cases
+
+
+@pytest.mark.parametrize("case", _shared_cases(), ids=lambda case: str(case["name"]))
+def test_the_shared_step_figure_vectors(case: dict[str, Any]) -> None:
+    """spec/vectors/step-figures.json: the one definition the TypeScript library and the page run too."""
+    args = (case["times"], case["positions"], case["start"], case["target"])
+    if case.get("error"):
+        with pytest.raises(ValueError):
+            analyse(*args)
+        return
+    figures, expect = analyse(*args), case["expect"]
+    for mine, theirs in ((figures.rise_time, expect["rise"]), (figures.settling_time, expect["settling"])):
+        assert (mine is None) == (theirs is None)
+        if mine is not None:
+            assert mine == pytest.approx(theirs, abs=1e-9)
+    assert figures.overshoot == pytest.approx(expect["overshoot"], abs=0.005)
+    assert figures.final_error == pytest.approx(expect["final_error"], abs=0.0005)
+    assert figures.settled is expect["settled"]

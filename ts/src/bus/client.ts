@@ -201,6 +201,8 @@ export class Bus {
   private quietWake: (() => void) | null = null;
   private pending: Pending | null = null;
   private closed: Error | null = null;
+  /** withPort() has the port: received bytes are its own, not answers */
+  private lent = false;
 
   constructor(
     readonly port: BytePort,
@@ -433,6 +435,27 @@ export class Bus {
   busyUntil(id: number): number {
     if (id === BROADCAST_ID) return Math.max(this.busyAllUntilMs, ...this.busyUntilMs.values());
     return Math.max(this.busyAllUntilMs, this.busyUntilMs.get(id) ?? 0);
+  }
+
+  /**
+   * Lend the port to a procedure that frames its own exchanges (discovery across rates, the
+   * product-line questions): it runs in turn with every other call, the client ignores what
+   * arrives meanwhile, and whatever was owed or seen is forgotten after it (the procedure may
+   * have changed the rate). `stop` is aborted by an emergency stop sent meanwhile: the procedure
+   * must end its waits then (the stop goes out right after it).
+   */
+  withPort<T>(task: (port: BytePort, stop: AbortSignal) => Promise<T>, signal?: AbortSignal): Promise<T> {
+    return this.exclusive(async () => {
+      this.lent = true;
+      try {
+        return await task(this.port, this.stopSignal.signal);
+      } finally {
+        this.lent = false;
+        this.parser.clear();
+        this.owed.clear();
+        this.lastSeen.clear();
+      }
+    }, signal);
   }
 
   /** Stop listening and close the port; queued calls fail with BusClosedError. */
@@ -763,6 +786,7 @@ export class Bus {
   }
 
   private received(chunk: Uint8Array): void {
+    if (this.lent) return; // a procedure of its own (withPort) reads these bytes
     for (const message of this.parser.feed(chunk)) {
       this.onTraffic?.({ direction: "rx", time: Date.now() - this.opened, message });
       const pending = this.pending;

@@ -48,6 +48,8 @@ export const HOST_STOP = {
   verifyMs: 2000,
   recheckMs: 50,
 } as const;
+/** The order discovery searches the 18 rates, most likely first (spec/host.json, discovery). */
+export const DISCOVERY_RATE_ORDER: readonly number[] = [9600, 115200, 1000000, 57600, 19200, 38400, 500000, 250000, 230400, 76800, 28800, 14400, 4800, 2400, 1200, 600, 300, 110];
 
 export const LIMITS = {
   positionDeg: 655.33,

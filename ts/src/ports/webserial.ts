@@ -100,7 +100,7 @@ export class WebSerialPort implements BytePort {
       try {
         for (;;) {
           const { value, done } = await reader.read();
-          if (done) break;
+          if (done) return; // the stream ended (the port closed): a new reader would end at once, forever
           if (value.length > 0) this.data.emit(value);
         }
       } catch (err) {

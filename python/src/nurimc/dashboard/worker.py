@@ -35,7 +35,7 @@ from . import commands as c
 from . import tune_panel
 from .procedures import Reading, emergency_stop, gains_at_start, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
-from .stepresponse import analyse
+from ..stepresponse import analyse
 
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest target a position command can carry, degrees
 

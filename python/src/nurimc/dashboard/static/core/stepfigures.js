@@ -1,12 +1,13 @@
 // Step-response figures from a recorded step (pure): the page computes them for the live trace
 // and for the runs table the same way the server does (rise 10-90 %, overshoot, final error),
-// plus the settling time (last entry into the ±2 % band of the step).
+// plus the settling time (last entry into the ±2 % band of the step). One definition with its
+// cases in spec/vectors/step-figures.json, run by Python, the TS library and this page (e2e/unit).
 export const SETTLE_BAND = 0.02;
 
 /** times (s since the step), positions (°), start and target (°) -> figures; null when not enough data. */
 export function stepFigures(times, positions, start, target) {
   const step = target - start;
-  if (!times.length || step === 0) return null;
+  if (!times.length || times.length !== positions.length || step === 0) return null;
   const progress = positions.map((p) => (p - start) / step);
   const cross = (level) => {
     const i = progress.findIndex((p) => p >= level);

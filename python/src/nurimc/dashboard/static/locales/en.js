@@ -71,6 +71,21 @@ export default {
   "motors.progress": "{rate} bps ({index}/{total}); found so far: {found}",
   "motors.progressWalking": "{rate} bps ({index}/{total}), pinging ID {id}; found so far: {found}",
   "motors.subtitle": "{rate} bps · firmware {firmware}",
+  "motors.line": "line {line}",
+  "line.mc": "MC or BLMC-H",
+  "line.rsa": "RSA or SA",
+  "line.rsavw": "RSAVW",
+  "line.sm": "SM",
+  "line.unknown": "unknown",
+  "site.unsupported.title": "nurimc console: this browser has no Web Serial",
+  "site.unsupported.why":
+    "This page drives the motor controllers through the USB-RS485 adapter with Web Serial, which this browser does not offer (Firefox and Safari do not have it).",
+  "site.unsupported.browsers":
+    "Open this address in Chrome, Edge or another Chromium browser on Windows, macOS, Linux or ChromeOS (version 89 or later).",
+  "site.unsupported.python":
+    "Or use the Python console, which works in every browser: install nurimc and run nurimc dashboard with your port, then open the address it prints.",
+  "site.updated": "updated to version {version}: this page was replaced by the new one on this load",
+  "site.offline": "works offline: opened from this browser's copy",
   "motors.stats": "{rate} readings/s · {errors} errors · last answer {age} ms ago",
   "motors.position": "position",
   "motors.positionTitle": "continuous: counts whole turns since the console started",

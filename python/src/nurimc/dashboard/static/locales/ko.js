@@ -71,6 +71,21 @@ export default {
   "motors.progress": "{rate} bps ({index}/{total}); 지금까지 찾음: {found}",
   "motors.progressWalking": "{rate} bps ({index}/{total}), ID {id} 확인 중; 지금까지 찾음: {found}",
   "motors.subtitle": "{rate} bps · 펌웨어 {firmware}",
+  "motors.line": "제품군 {line}",
+  "line.mc": "MC 또는 BLMC-H",
+  "line.rsa": "RSA 또는 SA",
+  "line.rsavw": "RSAVW",
+  "line.sm": "SM",
+  "line.unknown": "알 수 없음",
+  "site.unsupported.title": "nurimc 콘솔: 이 브라우저에는 Web Serial이 없습니다",
+  "site.unsupported.why":
+    "이 페이지는 Web Serial로 USB-RS485 어댑터를 통해 모터 드라이버를 제어하는데, 이 브라우저는 Web Serial을 지원하지 않습니다 (Firefox와 Safari에는 없습니다).",
+  "site.unsupported.browsers":
+    "Windows, macOS, Linux 또는 ChromeOS에서 Chrome, Edge 등 Chromium 기반 브라우저(버전 89 이상)로 이 주소를 여세요.",
+  "site.unsupported.python":
+    "또는 모든 브라우저에서 동작하는 Python 콘솔을 사용하세요: nurimc를 설치하고 포트를 지정해 nurimc dashboard를 실행한 뒤 출력된 주소를 여세요.",
+  "site.updated": "버전 {version}(으)로 업데이트됨: 이번에 열 때 새 페이지로 바뀌었습니다",
+  "site.offline": "오프라인 사용 가능: 이 브라우저에 저장된 사본으로 열었습니다",
   "motors.stats": "초당 {rate}회 읽음 · 오류 {errors}회 · 마지막 응답 {age} ms 전",
   "motors.position": "위치",
   "motors.positionTitle": "연속 위치: 콘솔이 시작된 뒤의 회전 수를 셉니다",

@@ -28,7 +28,7 @@ export function startBackup() {
       } catch (error) {
         throw new InputProblem(t("msg.notJson", { name: file.name, why: error.message }));
       }
-      const result = await ask("restore", { document: document_ });
+      const result = await ask("restore", { document: document_, name: file.name });
       $("#backup-text").textContent = result.changed.length
         ? `${t("backup.restored")}\n${result.changed.join("\n")}`
         : t("backup.nothing");

@@ -5,6 +5,7 @@ import { clock, num, onLanguage, serverError, t } from "../core/i18n.js";
 import { BAUD_RATES, DEFAULT_BAUD } from "../core/limits.js";
 import { dashboard, emit, on } from "../core/store.js";
 import { DirectLink } from "../direct-link.js";
+import { settingsCatalogue } from "../direct-ops.js";
 import { ServerLink } from "../server-link.js";
 import { act, ask, say, sayError } from "./messages.js";
 import {
@@ -168,6 +169,8 @@ async function startDirect() {
     button.disabled = true;
     return;
   }
+  dashboard.settings = settingsCatalogue(dashboard.lib); // the settings editor, as the server gives it
+  emit("settings-catalogue", dashboard.settings);
   if (!("serial" in navigator)) {
     setStatus("status.noWebSerial");
     button.disabled = true;

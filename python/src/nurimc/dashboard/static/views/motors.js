@@ -97,7 +97,9 @@ function readControl(id) {
     .catch(() => {});
 }
 
-const subtitle = (info) => t("motors.subtitle", { rate: info.baudrate, firmware: info.firmware ?? "?" });
+const subtitle = (info) =>
+  t("motors.subtitle", { rate: info.baudrate, firmware: info.firmware ?? "?" }) +
+  (info.line ? ` · ${t("motors.line", { line: t(`line.${info.line}`) })}` : "");
 
 function makeCard(info) {
   const id = info.id;
