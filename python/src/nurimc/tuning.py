@@ -28,7 +28,7 @@ from .client.actions import Note, Now, Procedure, Wait
 from .errors import InputError, NurimcError, PortLost
 from .protocol import Message
 from .settings import confirmed_answer, setting
-from ..stepresponse import ResponseFigures, response_figures
+from .stepresponse import ResponseFigures, response_figures
 
 if TYPE_CHECKING:
     from .motor import MotorProcedures

@@ -217,7 +217,6 @@ class FramePrinter:
 def open_bus(o: Options, reconnect: bool = False, attach: bool = True) -> Bus:
     """The bus of --port; reconnect: reopen it when it goes away (long-running tools: outage.py).
     When another nurimc program holds the port, the bus is attached to it (docs/service.md)."""
-    from ..client.sync import Bus
     from ..transport import RS485
 
     port = o.port or os.environ.get("NURIMC_PORT")

@@ -30,12 +30,12 @@ from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS, STOP_VERIFY
 from ..service.backoff import Backoff
 from ..service.stop import Idle
+from ..stepresponse import analyse
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
 from . import tune_panel
 from .procedures import Reading, emergency_stop, gains_at_start, probe_port, set_zero, step_run
 from .scheduler import CANCELLED, MAX_PENDING, Done, Job, Scheduler
-from ..stepresponse import analyse
 
 POSITION_LIMIT = LIMITS["position_deg"]  # the largest target a position command can carry, degrees
 
