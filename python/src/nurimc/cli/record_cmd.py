@@ -11,7 +11,7 @@ import typer
 from ..budgets import READ_LIMITS_HELP
 from ..errors import NurimcError, PortLost
 from ..outage import OutageGuard
-from .common import EXIT_DEVICE, Number, fail, options, out, say_line
+from .common import EXIT_DEVICE, EXIT_USAGE, Number, fail, options, out, say_line
 from .i18n import tr
 from .ros2_cmd import RATE, SECONDS
 
@@ -186,7 +186,7 @@ def repair_mcap(
         complete = f"{torn} was complete; copied {result.messages} messages to {target}"
         out.print(tr(complete), soft_wrap=True, markup=False)
     elif result.lost and not result.messages:  # nothing whole in it (a chunk bomb, all chunks broken)
-        fail(f"nothing kept from {torn}: {result.problem}", EXIT_DEVICE)
+        fail(f"nothing kept from {torn}: {result.problem}", EXIT_USAGE)
     elif result.lost:  # broken chunks skipped, the rest kept (recording/salvage.py)
         out.print(
             tr(f"wrote {target}: {result.messages} messages kept; skipped in {torn}: {result.problem}"),

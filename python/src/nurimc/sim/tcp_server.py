@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import select
 import selectors
 import socket
 import threading
@@ -16,6 +17,8 @@ from .core import HostLink, WireModel
 
 log = logging.getLogger("nurimc.sim")
 
+#: descriptors at or above this go to epoll/kqueue instead of select() (FD_SETSIZE is 1,024)
+SELECT_LIMIT = 1000
 #: clients served at once; one more is accepted and closed at once (with a log line)
 MAX_CLIENTS = 1024
 #: bytes waiting for a client that does not read; past this it is dropped (the others never wait for it)
@@ -85,8 +88,25 @@ class TcpServer:
                 self.errors += 1
                 log.exception("simulator TCP server: error in its loop (serving on)")
 
+    def _ready(self, timeout: float | None) -> list[tuple[selectors.SelectorKey, int]]:
+        """What is ready. select() while every descriptor is below its FD_SETSIZE: it waits to
+        the microsecond, and the wire's timing needs that (epoll rounds a wait up to whole
+        milliseconds: +1 ms on every answer at 115,200 bps). Past it, epoll/kqueue."""
+        keys = {key.fd: key for key in self._selector.get_map().values()}
+        if max(keys, default=0) >= SELECT_LIMIT:
+            return self._selector.select(timeout)
+        readers = list(keys)
+        writers = [fd for fd, key in keys.items() if key.events & selectors.EVENT_WRITE]
+        readable, writable, _ = select.select(readers, writers, [], timeout)
+        ready: dict[int, int] = {}
+        for fd in readable:
+            ready[fd] = ready.get(fd, 0) | selectors.EVENT_READ
+        for fd in writable:
+            ready[fd] = ready.get(fd, 0) | selectors.EVENT_WRITE
+        return [(keys[fd], mask) for fd, mask in ready.items()]
+
     def _turn(self) -> None:
-        for key, events in self._selector.select(self.bus.wait_hint()):
+        for key, events in self._ready(self.bus.wait_hint()):
             if key.data == "wake":
                 with contextlib.suppress(OSError):
                     while os.read(self._wake_r, 4096):
