@@ -25,13 +25,13 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from .client.actions import Note, Now, Procedure, Wait
-from .errors import InputError, NurimcError, PortLost
+from .errors import InputError, NoAnswer, NurimcError, PortLost
 from .protocol import Message
 from .settings import confirmed_answer, setting
 from .stepresponse import ResponseFigures, response_figures
 
 if TYPE_CHECKING:
-    from .motor import MotorProcedures
+    from .motor import MotorProcedures, MotorState
 
 LOOPS = ("position", "speed")
 #: goal presets: (max overshoot %, objective); the objective weighs settling, overshoot and current
@@ -46,6 +46,7 @@ DEFAULT_MAX_CURRENT = 3.0  # A
 DEFAULT_TRIALS = 24
 MIN_STEP = 2.0  # deg: a smaller position step cannot be told from the reading's resolution
 MIN_WINDOW = 0.15  # s: a speed step shorter than this measures nothing
+READ_AGAIN_AFTER = 0.1  # s before a failed reading is asked once more
 SAMPLE_PAUSE = 0.005  # s between two readings in a trial (the wire sets the real rate)
 SETTLE_PATIENCE = 1.5  # s a trial waits for the motor to come to rest after its window
 SPEED_MARGIN = 1.3  # a reading above this times --max-rpm leaves the envelope
@@ -316,7 +317,7 @@ class Tuner:
         result = self.result = TuneResult(self.loop, self.goal, self.envelope, start_gains, rated)
         self._on_controller = start_gains
         try:
-            state = yield from self.motor.read_state()
+            state = yield from self._read_state()
             self._home = state.device_position
             yield from self._check_not_stopped_elsewhere()
             yield from self._search(result)
@@ -440,10 +441,26 @@ class Tuner:
             yield from self.write_gains(safe, result.rated_current)
         yield from self.motor.hold()
         self._released_by_us = False
-        here = (yield from self.motor.read_state()).device_position
+        here = (yield from self._read_state()).device_position
         if abs(here - self._home) > self.envelope.travel / 2:
             yield from self.motor.move_to(self._home, rpm=self.envelope.max_rpm)
             yield from self._wait_at_rest(guard=False)  # coming back from outside: no abort on the way
+
+    def _read_state(self) -> Procedure[MotorState]:
+        """A reading; one that fails after the core's retries is asked once more after a pause
+        (a loaded host or a noisy line): "does not answer" is two failures in a row."""
+        try:
+            return (yield from self.motor.read_state())
+        except NoAnswer:
+            yield Wait(READ_AGAIN_AFTER)
+            return (yield from self.motor.read_state())
+
+    def _read_speed(self) -> Procedure[float]:
+        try:
+            return (yield from self.motor.read_speed())
+        except NoAnswer:
+            yield Wait(READ_AGAIN_AFTER)
+            return (yield from self.motor.read_speed())
 
     def _outside(self, position: float, speed: float, current: float) -> str | None:
         env = self.envelope
@@ -469,7 +486,7 @@ class Tuner:
         began = yield Now()
         still = 0
         while (yield Now()) - began < SETTLE_PATIENCE:
-            state = yield from self.motor.read_state()
+            state = yield from self._read_state()
             guarded = guard and not self._released_by_us
             reason = self._outside(state.device_position, 0.0, state.current) if guarded else None
             if reason is not None:
@@ -496,7 +513,7 @@ class Tuner:
         return Trial(number, gains, worse.figures, worse.score, None, first.samples, first.start, first.target)
 
     def _position_leg(self, number: int, gains: Gains, target: float) -> Procedure[Trial]:
-        here = (yield from self.motor.read_state()).device_position
+        here = (yield from self._read_state()).device_position
         if abs(target - here) < MIN_STEP:  # already there (a leg after an abort): no step to measure
             target = self._home + self.envelope.travel / 2 if target == self._home else self._home
         yield from self.motor.move_to(target, rpm=self.envelope.max_rpm)
@@ -506,7 +523,7 @@ class Tuner:
         values: list[float] = []
         currents: list[float] = []
         while (now := (yield Now())) - began < self.window:
-            state = yield from self.motor.read_state()
+            state = yield from self._read_state()
             t = now - began
             samples.append((t, state.device_position))
             times.append(t)
@@ -529,7 +546,7 @@ class Tuner:
         return Trial(number, gains, figures, cost, None, tuple(samples), here, target)
 
     def _speed_trial(self, number: int, gains: Gains) -> Procedure[Trial]:
-        here = (yield from self.motor.read_state()).device_position
+        here = (yield from self._read_state()).device_position
         forward = here <= self._home
         room = self._home + self.envelope.travel - here if forward else here - (self._home - self.envelope.travel)
         window = min(self.window, speed_window(self.envelope, room))
@@ -541,8 +558,8 @@ class Tuner:
         values: list[float] = []
         currents: list[float] = []
         while (now := (yield Now())) - began < window:
-            state = yield from self.motor.read_state()
-            speed = yield from self.motor.read_speed()
+            state = yield from self._read_state()
+            speed = yield from self._read_speed()
             t = now - began
             samples.append((t, speed))
             times.append(t)
