@@ -280,7 +280,7 @@ def test_one_missed_reading_is_asked_again_two_in_a_row_stop_the_tune(make_sim_b
             result = bus.run(procedures.tune("position", trials=4))
             assert len(result.trials) == 4
         else:
-            with pytest.raises(TuneStopped, match="no answer from ID 1.*restored the starting gains") as info:
+            with pytest.raises(TuneStopped, match=r"no answer from ID 1.*restored the starting gains") as info:
                 bus.run(procedures.tune("position", trials=4))
             assert info.value.restored
         assert gains_on(sim) == START
