@@ -45,6 +45,7 @@ DEFAULT_MAX_RPM = 30.0
 DEFAULT_MAX_CURRENT = 3.0  # A
 DEFAULT_TRIALS = 24
 MIN_STEP = 2.0  # deg: a smaller position step cannot be told from the reading's resolution
+MIN_STEPS_PER_STEP = 10  # reading steps a position step must span to be measured
 MIN_WINDOW = 0.15  # s: a speed step shorter than this measures nothing
 READ_AGAIN_AFTER = 0.1  # s before a failed reading is asked once more
 SAMPLE_PAUSE = 0.005  # s between two readings in a trial (the wire sets the real rate)
@@ -313,6 +314,8 @@ class Tuner:
         """Tune; with `apply` leave the chosen gains on the controller, else write the starting
         gains back (the caller applies after asking: `apply_best`). Starting gains are written
         back on every error or interruption (then TuneStopped, or the interruption, propagates)."""
+        if self.loop == "position":
+            yield from self._check_resolution()  # before anything is written or moved
         start_gains, rated = yield from self.read_gains()
         result = self.result = TuneResult(self.loop, self.goal, self.envelope, start_gains, rated)
         self._on_controller = start_gains
@@ -345,6 +348,26 @@ class Tuner:
                 what = str(error) if isinstance(error, TuneStopped) else f"tune stopped: {error}"
                 raise TuneStopped(f"{what}; {said}", result, restored) from error
             raise
+
+    def _check_resolution(self) -> Procedure[None]:
+        """Refuse a position step the reading cannot resolve: on a line with a resolution setting
+        (MC: encoder pulses, 4 counts each, quadrature; BLMC-H: hall poles, 3 steps each), the
+        reading moves in 360 / (counts x ratio) degree steps; a step needs MIN_STEPS_PER_STEP."""
+        counts_per_unit = {"mc": 4, "blmc-h": 3}.get(self.motor.profile.key)
+        if counts_per_unit is None or not self.motor.line.has("request_resolution"):
+            return
+        resolution = float((yield from self.motor.get("resolution")))
+        ratio = float((yield from self.motor.get("ratio"))) if self.motor.line.has("request_ratio") else 1.0
+        quantum = 360.0 / max(resolution * counts_per_unit * max(ratio, 0.1), 1e-9)
+        step = self.envelope.travel / 2
+        if step < MIN_STEPS_PER_STEP * quantum:
+            unit = self.motor.profile.resolution_unit
+            raise TuneRefused(
+                f"ID {self.motor.id} reads its position in {quantum:.3g}° steps (resolution {resolution:g} {unit}, "
+                f"ratio {ratio:g}): a {step:g}° step cannot be measured (at least {MIN_STEPS_PER_STEP} steps, "
+                f"{MIN_STEPS_PER_STEP * quantum:.3g}°); give a larger --travel, or set the encoder's real resolution "
+                "(nurimc set resolution N)"
+            )
 
     def apply_best(self) -> Procedure[Gains]:
         """After a run without `apply`: write the chosen gains (read back)."""

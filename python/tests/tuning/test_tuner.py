@@ -284,3 +284,15 @@ def test_one_missed_reading_is_asked_again_two_in_a_row_stop_the_tune(make_sim_b
                 bus.run(procedures.tune("position", trials=4))
             assert info.value.restored
         assert gains_on(sim) == START
+
+
+def test_a_reading_too_coarse_for_the_step_is_refused_before_anything_is_written(make_sim_bus: Build) -> None:
+    sim, bus = make_sim_bus([1], baud=115200)  # the document's factory resolution 4: 22.5° steps
+    controller = sim.controllers[0]
+    angle = controller.servo.motor.angle
+    coarse = r"reads its position in 22\.5° steps \(resolution 4 encoder pulses, ratio 1\)"
+    with pytest.raises(TuneRefused, match=coarse):
+        bus.motor(1).tune()
+    assert controller.busy_until < 0  # no settings command reached it (each one starts its busy time)
+    assert controller.servo.motor.angle == angle
+    assert gains_on(sim) == START
