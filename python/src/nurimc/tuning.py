@@ -191,6 +191,7 @@ class TrialSample:
     number: int
     t: float
     value: float
+    state: MotorState | None = None  # the whole reading (the console's live plots)
 
 
 @dataclass(frozen=True, slots=True)
@@ -552,7 +553,7 @@ class Tuner:
             times.append(t)
             values.append(state.device_position)
             currents.append(state.current)
-            yield Note(TrialSample(number, t, state.device_position))
+            yield Note(TrialSample(number, t, state.device_position, state))
             why = self._outside(state.device_position, state.speed, state.current)
             if why is None and len(values) > 3:
                 crossing = response_figures(times, values, here, target, min_band=0.5).oscillations
@@ -588,7 +589,7 @@ class Tuner:
             times.append(t)
             values.append(speed)
             currents.append(state.current)
-            yield Note(TrialSample(number, t, speed))
+            yield Note(TrialSample(number, t, speed, state))
             why = self._outside(state.device_position, speed, state.current)
             if why is not None:
                 return (yield from self._abort(number, gains, why, samples, 0.0, rpm))
