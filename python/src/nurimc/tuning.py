@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from .client.actions import Note, Now, Procedure, Wait
 from .errors import InputError, NoAnswer, NurimcError, PortLost
@@ -30,8 +30,11 @@ from .protocol import Message
 from .settings import confirmed_answer, setting
 from .stepresponse import ResponseFigures, response_figures
 
-if TYPE_CHECKING:
-    from .motor import MotorProcedures, MotorState
+# The motor is a nurimc.motor.MotorProcedures, and a reading its MotorState; they are not
+# imported here (not even for types): motor.py's tune() imports this module, and the package
+# has no import cycles (tests/test_imports.py).
+MotorProcedures = Any
+MotorState = Any
 
 LOOPS = ("position", "speed")
 #: goal presets: (max overshoot %, objective); the objective weighs settling, overshoot and current
@@ -481,10 +484,10 @@ class Tuner:
 
     def _read_speed(self) -> Procedure[float]:
         try:
-            return (yield from self.motor.read_speed())
+            return float((yield from self.motor.read_speed()))
         except NoAnswer:
             yield Wait(READ_AGAIN_AFTER)
-            return (yield from self.motor.read_speed())
+            return float((yield from self.motor.read_speed()))
 
     def _outside(self, position: float, speed: float, current: float) -> str | None:
         env = self.envelope

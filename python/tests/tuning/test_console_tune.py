@@ -50,7 +50,7 @@ class FakeWorker:
 
 def test_tune_op_is_parsed_and_checked_before_the_bus() -> None:
     command: object = c.parse({"op": "tune", "id": 1, "goal": "smooth", "trials": 5, "travel": 20})
-    assert command == tune_panel.Tune(1, "position", "smooth", 20.0, 30.0, 3.0, 5, None, None)
+    assert command == c.Tune(1, "position", "smooth", 20.0, 30.0, 3.0, 5, None, None)
     assert isinstance(c.parse({"op": "tune_cancel"}), tune_panel.TuneCancel)
     for message, said in [
         ({"op": "tune", "id": 1, "goal": "fast"}, "goal must be one of"),
