@@ -112,7 +112,8 @@ def main() -> None:
     plants = dict(list(PLANTS.items())[:3]) if quick else PLANTS
     document = {
         "benchmark": "tune",
-        "what": "position-loop tune from the MC factory gains on simulated plants; independent 15 deg steps before/after",
+        "what": "position-loop tune from the MC factory gains on simulated plants; "
+        "independent 15 deg steps before/after",
         "trials_budget": trials,
         "goals": {goal: run(goal, trials, plants) for goal in GOALS},
         "host": {

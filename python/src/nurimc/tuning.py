@@ -22,16 +22,19 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from .client.actions import Note, Now, Procedure, Wait
-from .errors import InputError, NurimcError, PortLost
+from .errors import InputError, NoAnswer, NurimcError, PortLost
 from .protocol import Message
 from .settings import confirmed_answer, setting
 from .stepresponse import ResponseFigures, response_figures
 
-if TYPE_CHECKING:
-    from .motor import MotorProcedures
+# The motor is a nurimc.motor.MotorProcedures, and a reading its MotorState; they are not
+# imported here (not even for types): motor.py's tune() imports this module, and the package
+# has no import cycles (tests/test_imports.py).
+MotorProcedures = Any
+MotorState = Any
 
 LOOPS = ("position", "speed")
 #: goal presets: (max overshoot %, objective); the objective weighs settling, overshoot and current
@@ -45,7 +48,9 @@ DEFAULT_MAX_RPM = 30.0
 DEFAULT_MAX_CURRENT = 3.0  # A
 DEFAULT_TRIALS = 24
 MIN_STEP = 2.0  # deg: a smaller position step cannot be told from the reading's resolution
+MIN_STEPS_PER_STEP = 10  # reading steps a position step must span to be measured
 MIN_WINDOW = 0.15  # s: a speed step shorter than this measures nothing
+READ_AGAIN_AFTER = 0.1  # s before a failed reading is asked once more
 SAMPLE_PAUSE = 0.005  # s between two readings in a trial (the wire sets the real rate)
 SETTLE_PATIENCE = 1.5  # s a trial waits for the motor to come to rest after its window
 SPEED_MARGIN = 1.3  # a reading above this times --max-rpm leaves the envelope
@@ -189,6 +194,7 @@ class TrialSample:
     number: int
     t: float
     value: float
+    state: MotorState | None = None  # the whole reading (the console's live plots)
 
 
 @dataclass(frozen=True, slots=True)
@@ -312,11 +318,13 @@ class Tuner:
         """Tune; with `apply` leave the chosen gains on the controller, else write the starting
         gains back (the caller applies after asking: `apply_best`). Starting gains are written
         back on every error or interruption (then TuneStopped, or the interruption, propagates)."""
+        if self.loop == "position":
+            yield from self._check_resolution()  # before anything is written or moved
         start_gains, rated = yield from self.read_gains()
         result = self.result = TuneResult(self.loop, self.goal, self.envelope, start_gains, rated)
         self._on_controller = start_gains
         try:
-            state = yield from self.motor.read_state()
+            state = yield from self._read_state()
             self._home = state.device_position
             yield from self._check_not_stopped_elsewhere()
             yield from self._search(result)
@@ -344,6 +352,26 @@ class Tuner:
                 what = str(error) if isinstance(error, TuneStopped) else f"tune stopped: {error}"
                 raise TuneStopped(f"{what}; {said}", result, restored) from error
             raise
+
+    def _check_resolution(self) -> Procedure[None]:
+        """Refuse a position step the reading cannot resolve: on a line with a resolution setting
+        (MC: encoder pulses, 4 counts each, quadrature; BLMC-H: hall poles, 3 steps each), the
+        reading moves in 360 / (counts x ratio) degree steps; a step needs MIN_STEPS_PER_STEP."""
+        counts_per_unit = {"mc": 4, "blmc-h": 3}.get(self.motor.profile.key)
+        if counts_per_unit is None or not self.motor.line.has("request_resolution"):
+            return
+        resolution = float((yield from self.motor.get("resolution")))
+        ratio = float((yield from self.motor.get("ratio"))) if self.motor.line.has("request_ratio") else 1.0
+        quantum = 360.0 / max(resolution * counts_per_unit * max(ratio, 0.1), 1e-9)
+        step = self.envelope.travel / 2
+        if step < MIN_STEPS_PER_STEP * quantum:
+            unit = self.motor.profile.resolution_unit
+            raise TuneRefused(
+                f"ID {self.motor.id} reads its position in {quantum:.3g}° steps (resolution {resolution:g} {unit}, "
+                f"ratio {ratio:g}): a {step:g}° step cannot be measured (at least {MIN_STEPS_PER_STEP} steps, "
+                f"{MIN_STEPS_PER_STEP * quantum:.3g}°); give a larger --travel, or set the encoder's real resolution "
+                "(nurimc set resolution N)"
+            )
 
     def apply_best(self) -> Procedure[Gains]:
         """After a run without `apply`: write the chosen gains (read back)."""
@@ -440,10 +468,26 @@ class Tuner:
             yield from self.write_gains(safe, result.rated_current)
         yield from self.motor.hold()
         self._released_by_us = False
-        here = (yield from self.motor.read_state()).device_position
+        here = (yield from self._read_state()).device_position
         if abs(here - self._home) > self.envelope.travel / 2:
             yield from self.motor.move_to(self._home, rpm=self.envelope.max_rpm)
             yield from self._wait_at_rest(guard=False)  # coming back from outside: no abort on the way
+
+    def _read_state(self) -> Procedure[MotorState]:
+        """A reading; one that fails after the core's retries is asked once more after a pause
+        (a loaded host or a noisy line): "does not answer" is two failures in a row."""
+        try:
+            return (yield from self.motor.read_state())
+        except NoAnswer:
+            yield Wait(READ_AGAIN_AFTER)
+            return (yield from self.motor.read_state())
+
+    def _read_speed(self) -> Procedure[float]:
+        try:
+            return float((yield from self.motor.read_speed()))
+        except NoAnswer:
+            yield Wait(READ_AGAIN_AFTER)
+            return float((yield from self.motor.read_speed()))
 
     def _outside(self, position: float, speed: float, current: float) -> str | None:
         env = self.envelope
@@ -469,7 +513,7 @@ class Tuner:
         began = yield Now()
         still = 0
         while (yield Now()) - began < SETTLE_PATIENCE:
-            state = yield from self.motor.read_state()
+            state = yield from self._read_state()
             guarded = guard and not self._released_by_us
             reason = self._outside(state.device_position, 0.0, state.current) if guarded else None
             if reason is not None:
@@ -496,7 +540,7 @@ class Tuner:
         return Trial(number, gains, worse.figures, worse.score, None, first.samples, first.start, first.target)
 
     def _position_leg(self, number: int, gains: Gains, target: float) -> Procedure[Trial]:
-        here = (yield from self.motor.read_state()).device_position
+        here = (yield from self._read_state()).device_position
         if abs(target - here) < MIN_STEP:  # already there (a leg after an abort): no step to measure
             target = self._home + self.envelope.travel / 2 if target == self._home else self._home
         yield from self.motor.move_to(target, rpm=self.envelope.max_rpm)
@@ -506,13 +550,13 @@ class Tuner:
         values: list[float] = []
         currents: list[float] = []
         while (now := (yield Now())) - began < self.window:
-            state = yield from self.motor.read_state()
+            state = yield from self._read_state()
             t = now - began
             samples.append((t, state.device_position))
             times.append(t)
             values.append(state.device_position)
             currents.append(state.current)
-            yield Note(TrialSample(number, t, state.device_position))
+            yield Note(TrialSample(number, t, state.device_position, state))
             why = self._outside(state.device_position, state.speed, state.current)
             if why is None and len(values) > 3:
                 crossing = response_figures(times, values, here, target, min_band=0.5).oscillations
@@ -529,7 +573,7 @@ class Tuner:
         return Trial(number, gains, figures, cost, None, tuple(samples), here, target)
 
     def _speed_trial(self, number: int, gains: Gains) -> Procedure[Trial]:
-        here = (yield from self.motor.read_state()).device_position
+        here = (yield from self._read_state()).device_position
         forward = here <= self._home
         room = self._home + self.envelope.travel - here if forward else here - (self._home - self.envelope.travel)
         window = min(self.window, speed_window(self.envelope, room))
@@ -541,14 +585,14 @@ class Tuner:
         values: list[float] = []
         currents: list[float] = []
         while (now := (yield Now())) - began < window:
-            state = yield from self.motor.read_state()
-            speed = yield from self.motor.read_speed()
+            state = yield from self._read_state()
+            speed = yield from self._read_speed()
             t = now - began
             samples.append((t, speed))
             times.append(t)
             values.append(speed)
             currents.append(state.current)
-            yield Note(TrialSample(number, t, speed))
+            yield Note(TrialSample(number, t, speed, state))
             why = self._outside(state.device_position, speed, state.current)
             if why is not None:
                 return (yield from self._abort(number, gains, why, samples, 0.0, rpm))

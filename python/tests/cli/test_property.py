@@ -124,6 +124,13 @@ NUMERIC: list[tuple[str, list[str], Callable[[str], bool] | None]] = [
     ("run --ramp", ["--port", NO_PORT, "--id", "1", "run", "100", "--ramp", "V"], SECONDS),
     ("move --timeout", ["--port", NO_PORT, "--id", "1", "move", "90", "--wait", "--timeout", "V"], in_range(0.1, 3600)),
     ("stop --ramp", ["--port", NO_PORT, "--id", "1", "stop", "--ramp", "V"], SECONDS),
+    # tune (issue 35): refusals before the port is opened; --travel's smallest depends on the loop
+    ("tune --max-overshoot", ["--port", NO_PORT, "--id", "1", "tune", "--max-overshoot", "V"], in_range(0, 100)),
+    ("tune --max-settling", ["--port", NO_PORT, "--id", "1", "tune", "--max-settling", "V"], in_range(0.01, 30)),
+    ("tune --travel", ["--port", NO_PORT, "--id", "1", "tune", "--travel", "V"], None),
+    ("tune --max-rpm", ["--port", NO_PORT, "--id", "1", "tune", "--max-rpm", "V"], in_range(1, 6553.3)),
+    ("tune --max-current", ["--port", NO_PORT, "--id", "1", "tune", "--max-current", "V"], in_range(0.1, 25.4)),
+    ("tune --trials", ["--port", NO_PORT, "--id", "1", "tune", "--trials", "V"], in_range(2, 500, whole=True)),
     ("watch --interval", ["--port", NO_PORT, "--id", "1", "watch", "--interval", "V"], in_range(0.01, 3600)),
     ("watch --count", ["--port", NO_PORT, "--id", "1", "watch", "--count", "V"], in_range(0, 1e6, whole=True)),
     ("scan --rates", ["--port", NO_PORT, "scan", "--rates", "V"], None),  # a list

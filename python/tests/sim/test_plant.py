@@ -150,3 +150,20 @@ def test_cli_plant_option_applies_per_id_and_refuses_unknown_ids() -> None:
     bus = build_bus("1", 9600, [], "mc", None, False, 0, FaultConfig())
     with pytest.raises(ValueError, match="no controller has ID 5"):
         apply_plants(bus, ["5:inertia=2"])
+
+
+def test_sim_url_takes_plant_parameters() -> None:
+    from nurimc.sim.options import OptionError
+    from nurimc.sim.urlhandler.protocol_sim import bus_from_url
+
+    bus = bus_from_url("sim://?ids=1,2&plant=2:inertia=3,backlash=0.3")
+    try:
+        assert {c.id: c.servo.plant for c in bus.controllers} == {1: Plant(), 2: Plant(inertia=3.0, backlash=0.3)}
+    finally:
+        bus.close()
+    for url, said in [
+        ("sim://?ids=1&plant=7:inertia=2", "sim:// URL: plant='7:inertia=2': no controller has ID 7"),
+        ("sim://?ids=1&plant=1:mass=2", "unknown plant key 'mass'"),
+    ]:
+        with pytest.raises(OptionError, match=said):
+            bus_from_url(url)

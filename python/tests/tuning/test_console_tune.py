@@ -50,7 +50,7 @@ class FakeWorker:
 
 def test_tune_op_is_parsed_and_checked_before_the_bus() -> None:
     command: object = c.parse({"op": "tune", "id": 1, "goal": "smooth", "trials": 5, "travel": 20})
-    assert command == tune_panel.Tune(1, "position", "smooth", 20.0, 30.0, 3.0, 5, None, None)
+    assert command == c.Tune(1, "position", "smooth", 20.0, 30.0, 3.0, 5, None, None)
     assert isinstance(c.parse({"op": "tune_cancel"}), tune_panel.TuneCancel)
     for message, said in [
         ({"op": "tune", "id": 1, "goal": "fast"}, "goal must be one of"),
@@ -78,6 +78,7 @@ def test_worker_handler_publishes_each_trial_and_writes_the_starting_gains_back(
     assert first["gains"] == {"kp": 50, "ki": 0, "kd": 10} and len(first["times"]) == len(first["values"]) > 10
     assert first["target"] - first["start"] == pytest.approx(15.0)
     assert gains_on(sim) == START  # the page applies the chosen gains itself, with `set`
+    assert len(worker.plotted) > 50 and {s.id for s in worker.plotted} == {1}  # the live plots follow the tune
 
 
 def test_cancel_mid_tune_restores_the_starting_gains(make_sim_bus: Build) -> None:

@@ -258,3 +258,41 @@ def test_async_motor_tune(make_sim_bus: Build) -> None:
     result = asyncio.run(main())
     assert len(result.trials) == 5 and result.applied and result.best is not None
     assert gains_on(sim) == result.best.gains
+
+
+def test_one_missed_reading_is_asked_again_two_in_a_row_stop_the_tune(make_sim_bus: Build) -> None:
+    from nurimc.errors import NoAnswer
+
+    for misses, finishes in (({30}, True), ({30, 31}, False)):
+        sim, bus = on_plant(make_sim_bus, Plant(inertia=3.0))
+        procedures = bus.motor(1).procedures
+        real = procedures.read_state
+        calls = [0]
+
+        def flaky(real: Any = real, calls: list[int] = calls, misses: set[int] = misses) -> Any:
+            calls[0] += 1
+            if calls[0] in misses:
+                raise NoAnswer("request_position", 1, 115200, 3)
+            return (yield from real())
+
+        procedures.read_state = flaky  # type: ignore[method-assign]
+        if finishes:
+            result = bus.run(procedures.tune("position", trials=4))
+            assert len(result.trials) == 4
+        else:
+            with pytest.raises(TuneStopped, match=r"no answer from ID 1.*restored the starting gains") as info:
+                bus.run(procedures.tune("position", trials=4))
+            assert info.value.restored
+        assert gains_on(sim) == START
+
+
+def test_a_reading_too_coarse_for_the_step_is_refused_before_anything_is_written(make_sim_bus: Build) -> None:
+    sim, bus = make_sim_bus([1], baud=115200)  # the document's factory resolution 4: 22.5° steps
+    controller = sim.controllers[0]
+    angle = controller.servo.motor.angle
+    coarse = r"reads its position in 22\.5° steps \(resolution 4 encoder pulses, ratio 1\)"
+    with pytest.raises(TuneRefused, match=coarse):
+        bus.motor(1).tune()
+    assert controller.busy_until < 0  # no settings command reached it (each one starts its busy time)
+    assert controller.servo.motor.angle == angle
+    assert gains_on(sim) == START

@@ -66,6 +66,7 @@ PATTERNS: tuple[str, ...] = (
     "too fast: {value} RPM (max {limit})",
     "too much current: {value} A (max {limit} A)",
     "oscillating ({value} crossings of the target)",
+    "ID {id} reads its position in {quantum}° steps (resolution {resolution} {unit}, ratio {ratio}): a {step}° step cannot be measured (at least {count} steps, {least}°); give a larger --travel, or set the encoder's real resolution (nurimc set resolution N)",
     "overshoot {value} % > {limit} %",
     "settling {value} s > {limit} s",
     # product lines (issue 27), reconnect (21), restore journal, MCAP repair, captures: specific
@@ -370,6 +371,8 @@ MESSAGES: tuple[str, ...] = (
     "best",
     "still moving after the trial (oscillating)",
     "did not settle",
+    "encoder pulses",
+    "poles",
     "every trial was aborted: no gains were measured inside the envelope (widen it, or start from gentler gains)",
     "line",
     "MC or BLMC-H",

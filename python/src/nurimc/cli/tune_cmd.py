@@ -30,10 +30,32 @@ from ..tuning import (
     TuneRefused,
     TuneResult,
     TuneStopped,
+    check_envelope,
     make_goal,
 )
-from .common import EXIT_DEVICE, EXIT_USAGE, Options, emit, err, fail, motor_for, note, one_id, open_bus, options, table
+from .common import (
+    EXIT_DEVICE,
+    EXIT_USAGE,
+    Number,
+    Options,
+    emit,
+    err,
+    fail,
+    motor_for,
+    note,
+    one_id,
+    open_bus,
+    options,
+    table,
+)
 from .i18n import tr
+
+OVERSHOOT = Number("--max-overshoot", 0, 100, "%")
+SETTLING = Number("--max-settling", 0.01, 30, "s")
+TRAVEL = Number("--travel", 0.1, 655, "°")
+MAX_RPM = Number("--max-rpm", 1, 6553.3, "RPM")
+MAX_CURRENT = Number("--max-current", 0.1, 25.4, "A")
+TRIALS = Number("--trials", 2, 500, whole=True)
 
 
 def tune(
@@ -42,12 +64,33 @@ def tune(
     goal: str | None = typer.Option(
         None, "--goal", help="stiff, smooth or no-overshoot (the default when no limit is given)."
     ),
-    max_overshoot: float | None = typer.Option(None, "--max-overshoot", help="Largest overshoot allowed, percent."),
-    max_settling: float | None = typer.Option(None, "--max-settling", help="Longest settling time allowed, seconds."),
-    travel: float = typer.Option(DEFAULT_TRAVEL, "--travel", help="Degrees the motor may move either side of here."),
-    max_rpm: float = typer.Option(DEFAULT_MAX_RPM, "--max-rpm", help="Fastest a trial may turn, RPM."),
-    max_current: float = typer.Option(DEFAULT_MAX_CURRENT, "--max-current", help="Most current a trial may draw, A."),
-    trials: int = typer.Option(DEFAULT_TRIALS, "--trials", help="Trial budget (the first measures today's gains)."),
+    max_overshoot: float | None = typer.Option(
+        None, "--max-overshoot", help=f"Largest overshoot allowed ({OVERSHOOT.allowed}).", parser=OVERSHOOT
+    ),
+    max_settling: float | None = typer.Option(
+        None, "--max-settling", help=f"Longest settling time allowed ({SETTLING.allowed}).", parser=SETTLING
+    ),
+    travel: float = typer.Option(
+        DEFAULT_TRAVEL,
+        "--travel",
+        help=f"Degrees the motor may move either side of here ({TRAVEL.allowed}).",
+        parser=TRAVEL,
+    ),
+    max_rpm: float = typer.Option(
+        DEFAULT_MAX_RPM, "--max-rpm", help=f"Fastest a trial may turn ({MAX_RPM.allowed}).", parser=MAX_RPM
+    ),
+    max_current: float = typer.Option(
+        DEFAULT_MAX_CURRENT,
+        "--max-current",
+        help=f"Most current a trial may draw ({MAX_CURRENT.allowed}).",
+        parser=MAX_CURRENT,
+    ),
+    trials: int = typer.Option(
+        DEFAULT_TRIALS,
+        "--trials",
+        help=f"Trial budget, the first measures today's gains ({TRIALS.allowed}).",
+        parser=TRIALS,
+    ),
     apply: bool = typer.Option(False, "--apply", help="Write the chosen gains without asking."),
 ) -> None:
     """Tune the position or speed loop's gains with small steps on the motor.
@@ -62,6 +105,7 @@ def tune(
     try:  # every check before the port is opened: nothing moves on a refused tune
         chosen_goal = make_goal(goal, max_overshoot, max_settling)
         envelope = Envelope(travel, max_rpm, max_current)
+        check_envelope(loop, envelope, trials)
         with open_bus(o) as bus:
             motor = motor_for(bus, o, device_id)
             tuner = Tuner(motor.procedures, loop, chosen_goal, envelope, trials)

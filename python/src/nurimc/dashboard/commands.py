@@ -358,15 +358,70 @@ _PARSERS: dict[str, Any] = {
     "factory_reset": _factory_reset,
     "ports": lambda m: Ports(),
     "open_bus": _open_bus,
-    "tune": lambda m: _tune_panel().parse_tune(m),  # Auto-tune (tune_panel.py)
-    "tune_cancel": lambda m: _tune_panel().TuneCancel(),
+    "tune": lambda m: _tune(m),  # Auto-tune: run by tune_panel.py
+    "tune_cancel": lambda m: TuneCancel(),
 }
 
 
-def _tune_panel() -> Any:
-    from . import tune_panel
+# -- Auto-tune (issue 35; the worker's handler is tune_panel.run_tune) -------------------------
+TUNE_MAX_TRIALS = 60  # the most trials the console asks for at once (each takes a few seconds)
 
-    return tune_panel
+
+@dataclass(frozen=True, slots=True)
+class Tune:
+    id: int
+    loop: str
+    goal: str | None
+    travel: float
+    max_rpm: float
+    max_current: float
+    trials: int
+    max_overshoot: float | None
+    max_settling: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class TuneCancel:
+    """Taken out of band by the server (the worker is busy with the tune)."""
+
+
+def _tune(m: dict[str, Any]) -> Tune:
+    """The `tune` op, checked as the library checks it (nothing reaches the bus when refused)."""
+    from ..tuning import (
+        DEFAULT_MAX_CURRENT,
+        DEFAULT_MAX_RPM,
+        DEFAULT_TRAVEL,
+        GOALS,
+        Envelope,
+        TuneRefused,
+        check_envelope,
+        make_goal,
+    )
+
+    loop = m.get("loop", "position")
+    goal = m.get("goal")
+    if goal is not None and goal not in GOALS:
+        raise CommandError(f"tune: goal must be one of {', '.join(GOALS)}, got {_show(goal)}")
+    trials = _number(m, "trials", 12)
+    if trials != int(trials) or not 2 <= trials <= TUNE_MAX_TRIALS:
+        raise CommandError(f"tune: trials must be a whole number 2..{TUNE_MAX_TRIALS}, got {_show(m.get('trials'))}")
+    command = Tune(
+        _device_id(m),
+        loop if isinstance(loop, str) else "",
+        goal,
+        _number(m, "travel", DEFAULT_TRAVEL),
+        _number(m, "max_rpm", DEFAULT_MAX_RPM),
+        _number(m, "max_current", DEFAULT_MAX_CURRENT),
+        int(trials),
+        _optional_number(m, "max_overshoot"),
+        _optional_number(m, "max_settling"),
+    )
+    try:
+        make_goal(command.goal, command.max_overshoot, command.max_settling)
+        check_envelope(command.loop, Envelope(command.travel, command.max_rpm, command.max_current), command.trials)
+    except TuneRefused as refused:
+        raise CommandError(f"tune: {refused}") from None
+    return command
 
 
 def generation_of(message: Any) -> int | None:

@@ -12,44 +12,15 @@ the starting gains back; an emergency stop ends it the same way.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
 from typing import Any
 
 from ..errors import NurimcError
-from ..tuning import (
-    DEFAULT_MAX_CURRENT,
-    DEFAULT_MAX_RPM,
-    DEFAULT_TRAVEL,
-    GOALS,
-    Envelope,
-    TrialDone,
-    TrialStarted,
-    Tuner,
-    TuneRefused,
-    TuneStopped,
-    make_goal,
-)
+from ..tuning import Envelope, TrialDone, TrialStarted, Tuner, TuneStopped, make_goal
+from . import commands as c
 
-#: the most trials the console asks for at once (each takes a second or two)
-MAX_TRIALS = 60
-
-
-@dataclass(frozen=True, slots=True)
-class Tune:
-    id: int
-    loop: str
-    goal: str | None
-    travel: float
-    max_rpm: float
-    max_current: float
-    trials: int
-    max_overshoot: float | None
-    max_settling: float | None
-
-
-@dataclass(frozen=True, slots=True)
-class TuneCancel:
-    pass
+Tune = c.Tune
+TuneCancel = c.TuneCancel
+parse_tune = c._tune
 
 
 class TuneCancelled(Exception):
@@ -57,43 +28,6 @@ class TuneCancelled(Exception):
 
 
 CANCEL = threading.Event()
-
-
-def parse_tune(m: dict[str, Any]) -> Tune:
-    """The `tune` op, checked as the library checks it (nothing reaches the bus when refused)."""
-    from . import commands as c
-
-    device_id = c._device_id(m)
-    loop = m.get("loop", "position")
-    goal = m.get("goal")
-    if goal is not None and goal not in GOALS:
-        raise c.CommandError(f"tune: goal must be one of {', '.join(GOALS)}, got {c._show(goal)}")
-    trials = c._number(m, "trials", 12)
-    if trials != int(trials) or not 2 <= trials <= MAX_TRIALS:
-        raise c.CommandError(f"tune: trials must be a whole number 2..{MAX_TRIALS}, got {c._show(m.get('trials'))}")
-    command = Tune(
-        device_id,
-        loop if isinstance(loop, str) else "",
-        goal,
-        c._number(m, "travel", DEFAULT_TRAVEL),
-        c._number(m, "max_rpm", DEFAULT_MAX_RPM),
-        c._number(m, "max_current", DEFAULT_MAX_CURRENT),
-        int(trials),
-        c._optional_number(m, "max_overshoot"),
-        c._optional_number(m, "max_settling"),
-    )
-    try:
-        _tuner_checks(command)
-    except TuneRefused as refused:
-        raise c.CommandError(f"tune: {refused}") from None
-    return command
-
-
-def _tuner_checks(t: Tune) -> None:
-    from ..tuning import check_envelope
-
-    make_goal(t.goal, t.max_overshoot, t.max_settling)
-    check_envelope(t.loop, Envelope(t.travel, t.max_rpm, t.max_current), t.trials)
 
 
 def cancel() -> dict[str, Any]:
@@ -162,4 +96,4 @@ def run_tune(worker: Any, t: Tune) -> dict[str, Any]:
     return {"id": t.id, "cancelled": False, "restored": True, **result.as_dict()}
 
 
-__all__ = ["CANCEL", "MAX_TRIALS", "Tune", "TuneCancel", "TuneCancelled", "cancel", "parse_tune", "run_tune"]
+__all__ = ["CANCEL", "Tune", "TuneCancel", "TuneCancelled", "cancel", "parse_tune", "run_tune"]

@@ -17,7 +17,7 @@ from .background import ready as background_ready
 from .bus import SimBus, describe
 from .faults import FaultConfig
 from .options import OptionError, check_baud, parse_ids, parse_motor
-from .plant import parse_plant
+from .plant import apply_plants as plants_onto
 from .profile import SPEED_ZERO_CHOICES, SimProfile, load_profiles
 from .settings import PRODUCT_NAMES
 from .store import StateError
@@ -146,14 +146,7 @@ def sim(
 def apply_plants(bus: SimBus, texts: list[str]) -> None:
     """Each --plant ID:KEY=VALUE,... onto the controllers with that ID (closes the bus on a bad one)."""
     try:
-        for text in texts:
-            device_id, plant = parse_plant(text)
-            chosen = [c for c in bus.controllers if c.id == device_id]
-            if not chosen:
-                have = ", ".join(str(c.id) for c in bus.controllers)
-                raise OptionError(f"--plant {text!r}: no controller has ID {device_id} (IDs: {have})")
-            for controller in chosen:
-                controller.set_plant(plant)
+        plants_onto(bus.controllers, texts)
     except BaseException:
         bus.close()
         raise

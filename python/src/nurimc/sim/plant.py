@@ -18,7 +18,9 @@ The gains keep today's scaling: a plant changes the motor, not the controller.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
+from typing import Any
 
 PLANT_KEYS = ("inertia", "viscous", "coulomb", "backlash", "noise", "delay")
 # what each key accepts: (lowest, highest) and what it means, for the one-line errors
@@ -100,4 +102,16 @@ def parse_plant(text: str) -> tuple[int, Plant]:
     return device_id, plant_from(values, f"--plant {text!r}")
 
 
-__all__ = ["PLANT_KEYS", "Plant", "PlantError", "check_value", "parse_plant", "plant_from"]
+def apply_plants(controllers: Sequence[Any], texts: Sequence[str]) -> None:
+    """Each `ID:KEY=VALUE,...` onto the controllers with that ID (PlantError if none has it)."""
+    for text in texts:
+        device_id, plant = parse_plant(text)
+        chosen = [c for c in controllers if c.id == device_id]
+        if not chosen:
+            have = ", ".join(str(c.id) for c in controllers)
+            raise PlantError(f"--plant {text!r}: no controller has ID {device_id} (IDs: {have})")
+        for controller in chosen:
+            controller.set_plant(plant)
+
+
+__all__ = ["PLANT_KEYS", "Plant", "PlantError", "apply_plants", "check_value", "parse_plant", "plant_from"]

@@ -17,6 +17,7 @@ import serial
 from ..bus import SimBus
 from ..faults import FaultConfig
 from ..options import OptionError, check_baud, parse_bool, parse_ids, parse_motor
+from ..plant import PlantError, apply_plants
 from ..port import SimSerial
 from ..profile import SPEED_ZERO_CHOICES
 from ..store import StateError
@@ -42,6 +43,7 @@ _KNOWN = {
     "echo",
     "speed_zero",
     "eeprom_ms",
+    "plant",
     *_FLOAT_FAULTS,
 }
 
@@ -97,6 +99,10 @@ def bus_from_url(url: str) -> SimBus:
         for spec in query.get("motor", []):
             i, rate, own = parse_motor(spec)
             bus.add_controller(i, rate, own or product)
+        try:  # plant=ID:KEY=VALUE,... (repeatable), as nurimc sim --plant
+            apply_plants(bus.controllers, query.get("plant", []))
+        except PlantError as error:
+            raise OptionError(f"sim:// URL: {str(error).replace('--plant ', 'plant=', 1)}") from None
     except BaseException:
         bus.close()
         raise
