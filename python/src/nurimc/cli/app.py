@@ -57,6 +57,7 @@ COMMAND_MODULES = (
     "ros2_cmd",
     "record_cmd",
     "recording_cmd",
+    "zero_cmd",
 )
 
 #: Commands that run until stopped: SIGTERM is their normal end (exit 0), not an interruption.
