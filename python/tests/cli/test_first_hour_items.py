@@ -4,8 +4,11 @@ its options, and the like."""
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable
 from typing import Any
+
+import pytest
 
 from nurimc.cli.zero_cmd import zero_here
 
@@ -73,3 +76,19 @@ def test_demo_prints_no_python_dict() -> None:
     assert done.code == 0, done.err
     line = next(x for x in done.out.replace("\n", " ").split("released all motors.")[1:])
     assert "Bus statistics: requests " in line and "{" not in line and "'" not in line.split("nurimc")[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "korean"),
+    [
+        (("move", "1000"), "각도: '1000'은(는) 범위를 벗어났습니다"),
+        (("run", "99999"), "회전 속도: '99999'은(는) 범위를 벗어났습니다"),
+    ],
+)
+def test_korean_errors_name_the_argument_in_korean(
+    monkeypatch: pytest.MonkeyPatch, args: tuple[str, ...], korean: str
+) -> None:
+    monkeypatch.setenv("LANGUAGE", "ko")
+    done = nurimc("--port", "sim://?ids=1", "--id", "1", *args)
+    assert done.code == 2 and korean in done.err, done.err
+    assert not re.search(r"\b(degrees|rpm)\b", done.err), done.err

@@ -295,6 +295,9 @@ MESSAGES: tuple[str, ...] = (
     "not back yet",
     "--token must be at least 16 characters (e.g. `python3 -c 'import secrets; print(secrets.token_urlsafe())'`)",
     "no controllers: give --ids or --motor",
+    # the positional arguments' names in messages (`degrees: '1000' is out of range`): Korean words
+    "degrees",
+    "rpm",
     "no controller answered. Check, in this order:",
     "  1. power: the controller's supply is on (its LED lights)",
     "  2. wiring: A to A, B to B (swap them if unsure) and a common ground between adapter and controller",
