@@ -236,12 +236,17 @@ def main(dist: Path) -> int:
             'import * as node from "nurimc/node";\n'
             'const frame = nurimc.toHex(nurimc.encode(nurimc.make("request_ping", 0, {})));\n'
             'if (typeof node.NodeSerialPort !== "function") throw new Error("nurimc/node lacks NodeSerialPort");\n'
+            "// serialport is an optional peer: not installed, opening a port says what to install\n"
+            'const why = await node.NodeSerialPort.open("/dev/null", 9600).then(() => "opened", (e) => e.message);\n'
+            'if (!why.includes("npm install serialport")) throw new Error(`no serialport: ${why}`);\n'
             "console.log(frame);\n"
         )
 
         def npm_install() -> str:
             npm = ["npm", "install", "--no-audit", "--no-fund", "--prefer-offline", "--loglevel=error"]
             run([*npm, str(tarball)], project, env)
+            if (project / "node_modules" / "serialport").exists():  # the codec alone: no native install scripts
+                raise RuntimeError("npm install nurimc installed serialport (it is an optional peer dependency)")
             return tarball.name
 
         def npm_import() -> str:

@@ -32,6 +32,13 @@ PYTEST_ITEM = re.compile(r"(\d+) (passed|failed|skipped|errors?|xfailed|xpassed)
 NODE_ITEM = re.compile(r"^(?:#|\u2139)\s+(pass|fail|skipped|skip|todo|cancelled)\s+(\d+)\s*$")
 
 
+# vitest: " Tests  119 passed | 1 skipped (120)"
+VITEST_LINE = re.compile(r"^Tests\s+((?:\d+ (?:passed|failed|skipped|todo)\s*\|?\s*)+)\(\d+\)$")
+VITEST_ITEM = re.compile(r"(\d+) (passed|failed|skipped|todo)")
+# ctest: "100% tests passed, 0 tests failed out of 23"
+CTEST_LINE = re.compile(r"^\d+% tests passed, (\d+) tests failed out of (\d+)")
+
+
 @dataclass
 class Counts:
     passed: int = 0
@@ -49,6 +56,17 @@ class Counts:
         m = NODE_ITEM.match(text)
         if m:
             self._add(m.group(1), int(m.group(2)))
+            return
+        m = VITEST_LINE.match(text)
+        if m:
+            for n, kind in VITEST_ITEM.findall(m.group(1)):
+                self._add(kind, int(n))
+            return
+        m = CTEST_LINE.match(text)
+        if m:
+            failed, total = int(m.group(1)), int(m.group(2))
+            self._add("passed", total - failed)
+            self._add("failed", failed)
 
     def _add(self, kind: str, n: int) -> None:
         self.seen = True

@@ -121,6 +121,10 @@ def _distance(a: float, b: float) -> float:
     return min(d, turn - d)
 
 
+#: run()'s ramp when none is given (s): the library's, the CLI's (`nurimc run`) and the TypeScript library's.
+RUN_RAMP = 0.1
+
+
 class MotorProcedures:
     """Everything a motor handle does, as procedures on a BusCore."""
 
@@ -180,7 +184,7 @@ class MotorProcedures:
             "accel_position", "move", direction=_direction(degrees), position=position, arrival_time=arrival
         )
 
-    def make_run(self, rpm: float, ramp_seconds: float = 0.1) -> Command:
+    def make_run(self, rpm: float, ramp_seconds: float = RUN_RAMP) -> Command:
         """Speed command: signed RPM (CCW +), reached in ramp_seconds (§3)."""
         if rpm == 0:
             raise ValueOutOfRange(
@@ -298,7 +302,7 @@ class MotorProcedures:
                 )
             yield Wait(MOTION_POLL)
 
-    def run(self, rpm: float, ramp_seconds: float = 0.1) -> Procedure[None]:
+    def run(self, rpm: float, ramp_seconds: float = RUN_RAMP) -> Procedure[None]:
         command = self.make_run(rpm, ramp_seconds)
         yield from self._enable_if_released()
         yield from self.core.tell(command)

@@ -135,6 +135,7 @@ NUMERIC: list[tuple[str, list[str], Callable[[str], bool] | None]] = [
     ("watch --count", ["--port", NO_PORT, "--id", "1", "watch", "--count", "V"], in_range(0, 1e6, whole=True)),
     ("scan --rates", ["--port", NO_PORT, "scan", "--rates", "V"], None),  # a list
     ("scan --ids", ["--port", NO_PORT, "scan", "--ids", "V"], None),  # a list
+    ("scan --expect", ["--port", NO_PORT, "scan", "--expect", "V"], in_range(0, 255 * 18, whole=True)),
     ("sniff --duration", ["--port", NO_PORT, "sniff", "--duration", "V"], in_range(0, 86400)),
     ("encode --to", ["encode", "request_ping", "--to", "V"], in_range(0, 255, whole=True)),
     ("demo --seconds", ["demo", "--seconds", "V"], in_range(0, 3600)),

@@ -3,10 +3,12 @@ quick start works as written (against the simulator, in Korean)."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -70,11 +72,24 @@ def test_readme_ko_quick_start_works(tmp_path: Path) -> None:
     env.pop("NURIMC_PORT", None)
     sim_line = next(line for line in lines if line.startswith("nurimc sim "))
     sim_argv = shlex.split(sim_line.replace("/tmp/nurimc0", str(link)).rstrip("& "))
-    sim = subprocess.Popen([NURIMC, *sim_argv[1:]], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    background_pid: int | None = None
+    if "--background" in sim_argv:  # returns once served, the simulator running on: its PID to stop it
+        started = subprocess.run([NURIMC, *sim_argv[1:]], env=env, capture_output=True, text=True, timeout=180)
+        found = re.search(r"kill (\d+)", started.stdout)
+        assert started.returncode == 0 and found, (started.stdout, started.stderr)
+        background_pid = int(found.group(1))
+        sim_argv = [a for a in sim_argv if a != "--background"]
+    sim = (
+        None
+        if background_pid
+        else subprocess.Popen(
+            [NURIMC, *sim_argv[1:]], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+    )
     try:
         deadline = time.monotonic() + 90
         while not link.exists():
-            assert sim.poll() is None and time.monotonic() < deadline, sim.communicate()
+            assert sim is not None and sim.poll() is None and time.monotonic() < deadline, sim and sim.communicate()
             time.sleep(0.05)
         ran = 0
         for line in sorted(lines):  # move before status is what the README shows; order is not needed
@@ -92,5 +107,22 @@ def test_readme_ko_quick_start_works(tmp_path: Path) -> None:
         assert proc.returncode == 0, proc.stderr
         assert "device_position=90" in proc.stdout or "device_position=89.9" in proc.stdout, proc.stdout
     finally:
-        sim.terminate()
-        sim.communicate(timeout=60)
+        if sim is not None:
+            sim.terminate()
+            sim.communicate(timeout=60)
+        if background_pid is not None:
+            stop_background(background_pid)
+
+
+def stop_background(pid: int) -> None:
+    """SIGTERM the simulator --background left running, and wait until it is gone."""
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGTERM)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    os.kill(pid, signal.SIGKILL)

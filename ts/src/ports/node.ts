@@ -3,7 +3,7 @@
  *
  *   const port = await NodeSerialPort.open("/dev/ttyUSB0", 115200);
  */
-import { SerialPort } from "serialport";
+import type { SerialPort } from "serialport";
 import { PortError } from "../bus/errors.js";
 import { type BytePort, type DataListener, type ErrorListener, Listeners } from "../bus/port.js";
 
@@ -21,7 +21,8 @@ export class NodeSerialPort implements BytePort {
   }
 
   /** Open `path` at `baudRate`, 8N1 (any of the 18 rates, including non-standard ones on Linux). */
-  static open(path: string, baudRate: number): Promise<NodeSerialPort> {
+  static async open(path: string, baudRate: number): Promise<NodeSerialPort> {
+    const { SerialPort } = await loadSerialport();
     return new Promise((resolve, reject) => {
       const serial = new SerialPort({ path, baudRate, dataBits: 8, stopBits: 1, parity: "none", autoOpen: false });
       serial.open((err) => (err ? reject(portError(path, err)) : resolve(new NodeSerialPort(serial))));
@@ -61,6 +62,19 @@ export class NodeSerialPort implements BytePort {
     if (!this.serial.isOpen) return Promise.resolve();
     this.closing = true;
     return new Promise((resolve) => this.serial.close(() => resolve()));
+  }
+}
+
+/** The npm `serialport` package, loaded when a port is opened: it is an optional peer dependency,
+ * so `npm install nurimc` for the codec alone runs no native install scripts. */
+async function loadSerialport(): Promise<typeof import("serialport")> {
+  try {
+    return await import("serialport");
+  } catch (err) {
+    throw new PortError(
+      "opening a serial port from Node needs the npm package serialport (an optional peer dependency): npm install serialport",
+      { cause: err },
+    );
   }
 }
 

@@ -68,6 +68,7 @@ COMMAND_MODULES = (
     "record_cmd",
     "service_cmd",
     "recording_cmd",
+    "zero_cmd",
 )
 
 #: Commands that run until stopped: SIGTERM is their normal end (exit 0), not an interruption.

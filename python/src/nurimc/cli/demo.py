@@ -95,7 +95,8 @@ def demo(
         bus.baudrate = rate
         motor.release()
     out.print()
-    out.print(tr(f"released all motors. Bus statistics: {bus.stats.as_dict()}"), markup=False)
+    stats = ", ".join(f"{name.replace('_', ' ')} {count}" for name, count in bus.stats.as_dict().items())
+    out.print(tr(f"released all motors. Bus statistics: {stats}"), markup=False)
     me = invoked_as()
     # soft_wrap: a command is never broken over two lines (it would not work as printed)
     out.print(

@@ -6,10 +6,12 @@ from typing import Any
 
 import typer
 
-from ..errors import InputError
+from ..errors import InputError, NotArrived, NurimcError
 from ..inputs import number
+from ..motor import RUN_RAMP
 from ..protocol.host import LIMITS
 from .common import (
+    EXIT_DEVICE,
     InputBadParameter,
     Number,
     Options,
@@ -82,7 +84,13 @@ def move(
         rpm = 30.0  # a gentle default
     with open_bus(o) as bus:
         motor = motor_for(bus, o, one_id(o))
-        (motor.move_by if by else motor.move_to)(degrees, rpm=rpm, seconds=seconds, wait=wait, timeout=timeout)
+        try:
+            (motor.move_by if by else motor.move_to)(degrees, rpm=rpm, seconds=seconds, wait=wait, timeout=timeout)
+        except NotArrived as error:
+            coarse = _factory_resolution_hint(motor)
+            if coarse:
+                fail(f"{error}; {coarse}", EXIT_DEVICE)
+            raise
         state = motor.read_state() if wait else None
     what = f"by {degrees}°" if by else f"to {degrees}°"
     how = f"at {rpm} RPM" if rpm is not None else f"in {seconds} s"
@@ -101,6 +109,26 @@ def move(
     emit(o, data, text)
 
 
+#: the document's factory resolution (MC: 4 encoder pulses, 16 counts a turn: 22.5° steps)
+FACTORY_RESOLUTION, FACTORY_STEP_DEG = 4, 22.5
+
+
+def _factory_resolution_hint(motor: Any) -> str:
+    """Why a move did not arrive, when it is the factory resolution: positions come in 22.5°
+    steps (a simulator started with sim:// or --resolution 4, or a controller never set up)."""
+    try:
+        resolution = motor.get("resolution")
+    except (NurimcError, KeyError, ValueError):
+        return ""
+    if resolution != FACTORY_RESOLUTION:
+        return ""
+    return (
+        f"its resolution is the factory {FACTORY_RESOLUTION}, so it reads positions in {FACTORY_STEP_DEG:g}° steps: "
+        f"set the encoder's pulses (nurimc --id {motor.id} set resolution 1024, as nurimc sim has) "
+        f"or move to a multiple of {FACTORY_STEP_DEG:g}°"
+    )
+
+
 def run(
     ctx: typer.Context,
     rpm: float = typer.Argument(
@@ -108,7 +136,7 @@ def run(
         help=f"Speed, CCW positive: {SIGNED_RPM.allowed}; 0 stops (as `stop`).",
         parser=_signed_rpm,
     ),
-    ramp: float = typer.Option(0.5, help=f"Time to reach the speed: {RAMP.allowed}.", parser=RAMP),
+    ramp: float = typer.Option(RUN_RAMP, help=f"Time to reach the speed: {RAMP.allowed}.", parser=RAMP),
 ) -> None:
     """Turn at a speed, ramping up.
 

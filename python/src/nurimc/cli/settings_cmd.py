@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from collections.abc import Callable
@@ -43,34 +44,47 @@ from .i18n import tr
 
 T = TypeVar("T")
 NAMES = ", ".join([*SETTINGS, "id", "baud"])
+#: what `set` can write: the read-only ones (firmware) are not offered
+WRITABLE = ", ".join([*(name for name, s in SETTINGS.items() if s.command is not None), "id", "baud"])
 
 
-def get(ctx: typer.Context, name: str = typer.Argument(..., help=f"One of: {NAMES}.")) -> None:
-    """Read one setting, in physical units.
+def get(ctx: typer.Context, names: list[str] = typer.Argument(..., help=f"One or more of: {NAMES}.")) -> None:
+    """Read settings, in physical units (one name, or several: get ratio resolution).
 
     Example: nurimc --port /dev/ttyUSB0 --id 1 get ratio
     """
     o = options(ctx)
-    if name in ("id", "baud"):
-        emit(
-            o,
-            {"id": one_id(o), "name": name, "value": one_id(o) if name == "id" else o.baud},
-            str(one_id(o) if name == "id" else o.baud),
-        )
+    device_id = one_id(o)
+    wanted = [name if name in ("id", "baud") else setting(name).name for name in names]  # all checked first
+    results: list[dict[str, object]] = []
+    lines: list[str] = []
+    needs_bus = any(name not in ("id", "baud") for name in wanted)
+    with open_bus(o) if needs_bus else contextlib.nullcontext() as bus:
+        motor = motor_for(bus, o, device_id, acts=False) if bus is not None else None
+        for name in wanted:
+            if name in ("id", "baud"):
+                value: object = device_id if name == "id" else o.baud
+                results.append({"id": device_id, "name": name, "value": value})
+                lines.append(str(value) if len(wanted) == 1 else f"{name} = {value}")
+                continue
+            s = setting(name)
+            assert motor is not None
+            got = motor.get(s.name)
+            results.append({"id": device_id, "name": s.name, "value": got, "unit": s.unit})
+            lines.append(f"{s.name} = {_shown(s, got)}")
+    if len(results) == 1:  # one name: one document, one line, as always
+        emit(o, results[0], lines[0])
         return
-    s = setting(name)
-    with open_bus(o) as bus:
-        value = motor_for(bus, o, one_id(o), acts=False).get(s.name)
-    emit(
-        o,
-        {"id": o.ids[0], "name": s.name, "value": value, "unit": s.unit},
-        f"{s.name} = {_shown(s, value)}",
-    )
+    if o.json:
+        emit(o, results)
+    else:
+        for line in lines:
+            emit(o, None, line)
 
 
 def set_(
     ctx: typer.Context,
-    name: str = typer.Argument(..., help=f"One of: {NAMES}."),
+    name: str = typer.Argument(..., help=f"One of: {WRITABLE}."),
     value: str = typer.Argument(..., help="In physical units: 12.5 (ratio 12.5:1), 300us, 2.5A, cw, relative, 115200."),
 ) -> None:
     """Write one setting and verify it by reading it back.
