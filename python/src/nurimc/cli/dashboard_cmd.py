@@ -100,11 +100,19 @@ def share_with_pages(holding: Any, worker: Any) -> None:
     holding.service.motor_source = lambda: worker.known
 
     def told(event: dict[str, Any]) -> None:
-        if event.get("type") == "estop":
+        if event.get("type") == "estop" and event.get("from") != "nurimc dashboard":
             worker.turning.clear()
             worker.publish({**event, "type": "estop", "generation": worker.generation, "from": "another program"})
 
     holding.service.listen(told)
+    publish = worker.publish
+
+    def to_pages_and_programs(event: dict[str, Any]) -> None:  # the console's own E-STOP: attached programs told
+        publish(event)
+        if event.get("type") == "estop" and "from" not in event:
+            holding.service.announce({**event, "from": "nurimc dashboard"})
+
+    worker.publish = to_pages_and_programs
 
 
 def console_bus(o: Any, tap: Any, port_name: str) -> tuple[Bus, Any]:
