@@ -170,9 +170,13 @@ export class DirectLink {
         }
         if (control[id] === "off" || performance.now() >= deadline) break;
         await this.bus.send(off(id)).catch(() => {}); // not off yet (busy, or a frame lost): tell it again
+        await new Promise((resolve) => setTimeout(resolve, HOST_STOP.recheckMs)); // spec/host.json "stop"
       }
     }
-    const result = { rates: [this.baudRate], control, verified: Object.values(control).every((c) => c === "off") };
+    const stopped = ids.filter((id) => control[id] === "off");
+    const notConfirmed = ids.filter((id) => control[id] !== "off");
+    const ok = stopped.length > 0 && notConfirmed.length === 0; // never "ok" with nothing read back
+    const result = { rates: [this.baudRate], control, stopped, not_confirmed: notConfirmed, ok, verified: ok };
     this.emit("estop", result);
     return result;
   }
