@@ -186,3 +186,12 @@ def test_readings_the_holder_makes_itself_are_shared_not_read_again(pair: tuple[
         service.run_for(0.02)
     assert service.reads == 0  # the service never read the bus for its subscriber
     assert 18 <= len(got) <= 21  # 10 a second, from the holder's readings
+
+
+def test_a_stop_of_the_holder_program_itself_is_told_to_every_program_and_latched(pair: tuple[SimBus, Bus]) -> None:
+    _, bus = pair
+    service = service_on(bus)
+    events: list[dict[str, Any]] = []
+    service.listen(events.append)
+    service.announce({"type": "estop", "from": "nurimc ros2", "stopped": [1, 2], "not_confirmed": [3]})
+    assert events[-1]["from"] == "nurimc ros2" and service.latched == {1, 2, 3}

@@ -21,7 +21,7 @@ from nurimc.sim import SimBus
 
 from ..client.simfixtures import sim_bus
 
-PORT = "sim://?shared-test"
+PORT = "/dev/nurimc-shared-test"  # no such device: the holder below serves a simulated bus under this name
 RATE = 115200
 
 
@@ -50,7 +50,7 @@ def test_the_socket_is_private_and_named_after_the_port(holder: tuple[SimBus, Bu
     path = socket_path(PORT)
     assert stat.S_IMODE(path.stat().st_mode) == 0o600
     assert stat.S_IMODE(path.parent.stat().st_mode) == 0o700
-    assert "sim" in path.name
+    assert "nurimc-shared-test" in path.name
 
 
 def test_an_attached_program_runs_commands_and_sees_the_holders_clients(
@@ -185,3 +185,20 @@ def test_in_process_buses_are_never_shared() -> None:
 
     assert not shareable("sim://?ids=1,&baud=115200") and not shareable("loop://")
     assert shareable("/dev/ttyUSB0") and shareable("socket://127.0.0.1:5000")
+
+
+def test_library_users_attach_with_open_shared(holder: tuple[SimBus, BusService, ShareServer]) -> None:
+    from nurimc.client.sync import Bus
+    from nurimc.service.share import open_shared
+
+    shared = open_shared(PORT, RATE, program="my-script")
+    try:
+        assert isinstance(shared, AttachedBus) and shared.motor(1).read_state().id == 1
+        assert "my-script" in {c["program"] for c in shared.clients()}
+    finally:
+        shared.close()
+    own = open_shared("loop://", RATE)
+    try:
+        assert type(own) is Bus  # nobody holds it (and loop:// is never shared): opened as usual
+    finally:
+        own.close()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from pathlib import Path
 import pytest
 
 RATE = "115200"
+READY: dict[int, str] = {}  # pid -> the ready line it printed
 
 
 def nurimc(*args: str) -> list[str]:
@@ -29,6 +31,7 @@ def started(cmd: list[str], env: dict[str, str], ready: str, timeout: float = 60
     while time.monotonic() < end:
         line = proc.stdout.readline()
         if ready in line:
+            READY[proc.pid] = line
             return proc
         if not line and proc.poll() is not None:
             raise AssertionError(f"{cmd[3:]} ended: {proc.stderr.read() if proc.stderr else ''}")
@@ -115,3 +118,36 @@ def test_a_second_holder_is_refused_and_nothing_attached_is_said(
     assert second.returncode != 0 and "already holds" in second.stderr and "Traceback" not in second.stderr
     nobody = run(env, "--port", port + "-other", "clients")
     assert nobody.returncode == 1 and "no nurimc program holds" in nobody.stderr
+
+
+def test_the_console_attaches_shows_live_state_and_an_estop_from_elsewhere_reaches_its_page(
+    held: tuple[str, dict[str, str], subprocess.Popen[str], Path],
+) -> None:
+    from ..dashboard.test_outside import ask, open_socket
+
+    port, env, _, _ = held
+    console = started(nurimc("--port", port, "--baud", RATE, "dashboard", "--listen", "127.0.0.1:0"), env, "ready:")
+    try:
+        listed = run(env, "--port", port, "clients", "--json")
+        assert "nurimc dashboard" in {c["program"] for c in json.loads(listed.stdout)}
+        address = re.search(r"ready: http://(\S+)/", READY[console.pid])
+        assert address, READY[console.pid]
+        with open_socket(address.group(1)) as ws:
+            found = ask(ws, "discover", rates=[int(RATE)])
+            assert found["ok"] and [m["id"] for m in found["result"]["motors"]] == [1, 2], found
+            assert ask(ws, "watch", ids=[1, 2])["ok"]
+            stopped = run(env, "--port", port, "estop", "--json")  # from another terminal
+            assert stopped.returncode == 0, stopped.stderr
+            rows: list[list[float]] = []
+            estop_seen = None
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline and (len(rows) < 20 or estop_seen is None):
+                message = json.loads(ws.recv(timeout=30))
+                if message.get("type") == "samples":
+                    rows += message["rows"]
+                elif message.get("type") == "estop":
+                    estop_seen = message
+            assert len(rows) >= 20 and {int(r[0]) for r in rows} == {1, 2}  # live state through the holder
+            assert estop_seen is not None and estop_seen["stopped"] == [1, 2]  # the page is told of the stop
+    finally:
+        ended(console)

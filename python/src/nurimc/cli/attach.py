@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from typing import Any
@@ -10,7 +11,12 @@ from ..client.sync import Bus
 from ..errors import NurimcError
 from ..motor import MotorState
 from ..service.share import AttachedBus, HolderGone, connect, shareable
-from .common import say_line
+from .i18n import tr
+
+
+def say_line(text: str) -> None:
+    """One line on stderr in the language in use (as common.say_line; common imports this module)."""
+    print(tr(text), file=sys.stderr, flush=True)
 
 
 def _said(event: dict[str, Any]) -> None:

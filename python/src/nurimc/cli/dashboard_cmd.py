@@ -84,6 +84,8 @@ def dashboard(
     )
     if holding is not None:
         config.on_worker = lambda worker: share_with_pages(holding, worker)
+    elif hasattr(bus, "conn"):  # attached to another program's port: what it tells goes to the pages too
+        config.on_worker = lambda worker: holder_to_pages(bus, worker)
     from ..dashboard.connlimits import ConnectionLimits, server_options
 
     limits = ConnectionLimits.for_this_process()  # raises the descriptor limit too
@@ -109,11 +111,38 @@ def share_with_pages(holding: Any, worker: Any) -> None:
     holding.service.motor_source = lambda: worker.known
 
     def told(event: dict[str, Any]) -> None:
-        if event.get("type") == "estop":
+        if event.get("type") == "estop" and event.get("from") != "nurimc dashboard":
             worker.turning.clear()
             worker.publish({**event, "type": "estop", "generation": worker.generation, "from": "another program"})
 
     holding.service.listen(told)
+    publish = worker.publish
+
+    def to_pages_and_programs(event: dict[str, Any]) -> None:  # the console's own E-STOP: attached programs told
+        publish(event)
+        if event.get("type") == "estop" and "from" not in event:
+            holding.service.announce({**event, "from": "nurimc dashboard"})
+
+    worker.publish = to_pages_and_programs
+
+
+def holder_to_pages(bus: Any, worker: Any) -> None:
+    """The console attached to a holder: an emergency stop from any program shows on every page
+    (the banner), and the holder's end is said there as a lost port is."""
+    said = bus.conn.on_event
+
+    def told(event: dict[str, Any]) -> None:
+        if said is not None:
+            said(event)
+        if event.get("type") == "estop":
+            worker.turning.clear()
+            worker.publish({**event, "type": "estop", "generation": worker.generation, "from": "another program"})
+        elif event.get("type") == "closed":
+            worker.publish(
+                {"type": "port", "state": "lost", "up": False, "port": worker.port, "text": event.get("message")}
+            )
+
+    bus.conn.on_event = told
 
 
 def console_bus(o: Any, tap: Any, port_name: str) -> tuple[Bus, Any]:

@@ -25,9 +25,7 @@ from ..motor import MotorState
 from ..outage import OutageGuard
 from ..products import DESCRIPTIONS
 from ..protocol import BAUD_RATES
-from ..service.share import AttachedBus, HolderGone
 from ..settings import SETTINGS
-from .attach import SharedReadings
 from .common import (
     EXIT_INTERRUPTED,
     Number,
@@ -269,6 +267,9 @@ def watch(
     o = options(ctx)
     if not o.ids:
         fail("watch: give the motors to watch with --id 1,2,3")
+    from ..service.share import AttachedBus, HolderGone  # the shared bus (docs/service.md): only when watching
+    from .attach import SharedReadings
+
     readings: list[dict[str, Any]] = []
     with open_bus(o, reconnect=True) as bus:
         motors = [motor_for(bus, o, i, acts=False) for i in o.ids]

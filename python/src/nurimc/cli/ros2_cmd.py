@@ -306,7 +306,7 @@ def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:
     from ..service.hold import hold_port
 
     def reported(event: dict[str, Any]) -> None:
-        if event.get("type") == "estop":
+        if event.get("type") == "estop" and event.get("from") != "nurimc ros2":  # its own stop is said already
             stopped = ", ".join(map(str, event.get("stopped", []))) or "none"
             missing = ", ".join(map(str, event.get("not_confirmed", [])))
             node._log(
@@ -324,6 +324,9 @@ def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:
                 holding.service.offer(state)
 
     node.on_states.append(offer)
+    node.on_stop.append(
+        lambda result: holding.service.announce({"type": "estop", "from": "nurimc ros2", **result.as_dict()})
+    )
     return holding
 
 

@@ -10,10 +10,6 @@ from typing import Any
 
 import typer
 
-from ..client.sync import Bus
-from ..errors import NurimcError
-from ..service import BusService, StopResult
-from ..service.share import ShareError, ShareServer, connect, socket_path
 from .common import EXIT_DEVICE, EXIT_OK, emit, fail, note, options, out, say_line, stop_flag, table
 from .i18n import tr
 
@@ -25,7 +21,7 @@ def port_of(o: Any) -> str:
     return port
 
 
-def _discover_motors(service: BusService, baud: int) -> dict[int, int]:
+def _discover_motors(service: Any, baud: int) -> dict[int, int]:
     found = service.discover([baud])
     return {f.id: f.baudrate for f in found}
 
@@ -41,6 +37,8 @@ def serve(ctx: typer.Context) -> None:
     """
     o = options(ctx)
     port = port_of(o)
+    from ..service import BusService
+    from ..service.share import ShareError, ShareServer, connect, socket_path
     from .common import open_bus  # attaching to a holder would be pointless here: refused below
 
     with contextlib.suppress(ShareError):
@@ -80,6 +78,8 @@ def clients(ctx: typer.Context) -> None:
     """
     o = options(ctx)
     port = port_of(o)
+    from ..service.share import ShareError, connect
+
     try:
         conn = connect(port, "nurimc clients")
     except ShareError as error:
@@ -113,8 +113,11 @@ def estop(ctx: typer.Context) -> None:
     """
     o = options(ctx)
     port = port_of(o)
+    from ..service import StopResult
+    from ..service.share import ShareError, connect, shareable
+
     try:
-        conn = connect(port, "nurimc estop")
+        conn = connect(port, "nurimc estop") if shareable(port) else None
     except ShareError as error:
         conn = None
         note(f"{error}; stopping on the port itself")
@@ -130,10 +133,12 @@ def estop(ctx: typer.Context) -> None:
     raise typer.Exit(EXIT_OK if result.ok else EXIT_DEVICE)
 
 
-def _stop_here(o: Any) -> StopResult:
+def _stop_here(o: Any) -> Any:
+    from ..errors import NurimcError
+    from ..service import BusService
     from .common import open_bus
 
-    bus: Bus = open_bus(o, attach=False)
+    bus = open_bus(o, attach=False)
     with bus:
         service = BusService(bus, motors={i: o.baud for i in o.ids}, program="nurimc estop")
         if not o.ids:  # control off first, then find out who is there to read back

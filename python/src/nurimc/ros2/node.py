@@ -102,6 +102,7 @@ class BridgeNode:
         #: called on the bus thread after each reading is published (ros2_control topics, mobile base)
         self.after_read: list[Callable[[float], list[Action]]] = []
         self.silent = Backoff()  # motors that stopped answering (docs/service.md)
+        self.on_stop: list[Callable[[StopResult], None]] = []  # given the result of each estop
         #: given each round of readings (ID -> state or error): the bus service shares them with attached programs
         self.on_states: list[Callable[[dict[int, MotorState | Exception]], None]] = []
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
@@ -302,6 +303,8 @@ class BridgeNode:
             self._log(f"estop: ID {ids_text} did not confirm control off within {STOP_VERIFY} s")
         if result.stopped:
             self._log(f"estop: control off confirmed on ID {', '.join(map(str, result.stopped))}")
+        for told in self.on_stop:  # the programs attached to this port are told (docs/service.md)
+            told(result)
         return result
 
     def read_states(self) -> dict[int, MotorState | Exception]:

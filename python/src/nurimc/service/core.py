@@ -253,6 +253,15 @@ class BusService:
 
         return unlisten
 
+    def announce(self, event: dict[str, Any]) -> None:
+        """Tell every program an event of the holder's own (its own emergency stop: the console's
+        button, the bridge's estop topic), as the service's own events are told."""
+        if event.get("type") == "estop":
+            with self._cond:
+                self.latched.update(int(i) for i in event.get("stopped", ()))
+                self.latched.update(int(i) for i in event.get("not_confirmed", ()))
+        self._tell(event)
+
     def _tell(self, event: dict[str, Any]) -> None:
         with self._cond:
             listeners = list(self._listeners)

@@ -691,6 +691,34 @@ class AttachedBus(Bus):
         super().close()
 
 
+#: Bus options that mean something on an attached bus (the port's own options are the holder's)
+ATTACHED_OPTIONS = frozenset(
+    {
+        "retries",
+        "timing",
+        "log_path",
+        "tracer",
+        "listeners",
+        "busy_window",
+        "busy_windows",
+        "late_answer",
+        "retry_pause",
+    }
+)
+
+
+def open_shared(port: str, baudrate: int = 9600, program: str = "python", **options: Any) -> Bus:
+    """For library users: attach to the nurimc program holding `port` (docs/service.md), else
+    open the port itself (`Bus.open`, with every option). Attached, the port's own options
+    (reconnect, latency, rs485) are the holder's and are ignored."""
+    if shareable(port):
+        conn = connect(port, program)
+        if conn is not None:
+            kept = {k: v for k, v in options.items() if k in ATTACHED_OPTIONS}
+            return AttachedBus(conn, port, baudrate, **kept)
+    return Bus.open(port, baudrate=baudrate, **options)
+
+
 __all__ = [
     "ESTOP",
     "AttachedBus",
@@ -700,5 +728,7 @@ __all__ = [
     "ShareError",
     "ShareServer",
     "connect",
+    "open_shared",
+    "shareable",
     "socket_path",
 ]

@@ -219,9 +219,13 @@ export class DirectLink {
           ? this.bus.send(off(id))
           : this.lib.tellInLine(this.bus, line, "set_control", id, { control: 1 });
         await again.catch(() => {});
+        await new Promise((resolve) => setTimeout(resolve, HOST_STOP.recheckMs)); // spec/host.json "stop"
       }
     }
-    const result = { rates, control, verified: Object.values(control).every((c) => c === "off") };
+    const stopped = ids.filter((id) => control[id] === "off");
+    const notConfirmed = ids.filter((id) => control[id] !== "off");
+    const ok = stopped.length > 0 && notConfirmed.length === 0; // never "ok" with nothing read back
+    const result = { rates, control, stopped, not_confirmed: notConfirmed, ok, verified: ok };
     this.emit("estop", result);
     return result;
   }

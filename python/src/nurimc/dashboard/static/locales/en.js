@@ -38,6 +38,7 @@ export default {
   "estop.done":
     "STOPPED by the emergency stop at {time}: control off sent at {rates} bps and read back off for every motor.",
   "estop.unconfirmed": "EMERGENCY STOP sent at {rates} bps, but not confirmed for {list}: cut the power.",
+  "estop.nothingRead": "any motor (no motor is known, so none was read back; discover the motors)",
   "estop.until": "Nothing moves until you give a new command.",
   "estop.dismiss": "Hide",
   "view.motors": "Motors",

@@ -38,6 +38,7 @@ export default {
   "estop.done":
     "{time}에 비상 정지로 정지됨: {rates} bps로 제어 끔을 보냈고 모든 모터에서 제어 끔을 다시 읽어 확인했습니다.",
   "estop.unconfirmed": "{rates} bps로 비상 정지를 보냈지만 {list}에서 확인되지 않았습니다: 전원을 차단하세요.",
+  "estop.nothingRead": "모든 모터(아는 모터가 없어 아무것도 다시 읽지 못했습니다; 모터를 검색하세요)",
   "estop.until": "새 명령을 내릴 때까지 아무것도 움직이지 않습니다.",
   "estop.dismiss": "숨기기",
   "view.motors": "모터",

@@ -237,13 +237,14 @@ function showEstop(m) {
   markStopped(m.control);
   const entries = Object.entries(m.control);
   const bad = entries.filter(([, control]) => control !== "off");
-  dashboard.stopped = { at: new Date(), rates: m.rates, bad };
+  const nothingRead = entries.length === 0; // never "stopped" with nothing read back (docs/service.md)
+  dashboard.stopped = { at: new Date(), rates: m.rates, bad, nothingRead };
   if (m.latched) dashboard.stopped.latched = true;
   showStopBanner();
   if (m.latched) setStopPending(null); // carried out on the returned port and read back
   $("#estop").dataset.lastResult = JSON.stringify(m.control);
   $("#estop").dataset.rates = m.rates.join(",");
-  if (dashboard.connected && !bad.length) $("#banner").classList.add("hidden"); // a late answer replaces a "not confirmed" alarm
+  if (dashboard.connected && !bad.length && !nothingRead) $("#banner").classList.add("hidden"); // a late answer replaces a "not confirmed" alarm
 }
 
 function showStopBanner() {
@@ -260,13 +261,15 @@ function showStopBanner() {
     return;
   }
   if (!stop) return;
-  box.classList.toggle("bad", stop.bad.length > 0);
-  $("#stop-banner-text").textContent = stop.bad.length
-    ? t("estop.unconfirmed", {
-        rates: stop.rates.join(", "),
-        list: stop.bad.map(([id, c]) => `ID ${id} (${serverError(c).text})`).join(", "),
-      })
-    : t(stop.latched ? "estop.doneLatched" : "estop.done", { rates: stop.rates.join(", "), time: clock(stop.at) });
+  box.classList.toggle("bad", stop.bad.length > 0 || stop.nothingRead);
+  $("#stop-banner-text").textContent = stop.nothingRead
+    ? t("estop.unconfirmed", { rates: stop.rates.join(", "), list: t("estop.nothingRead") })
+    : stop.bad.length
+      ? t("estop.unconfirmed", {
+          rates: stop.rates.join(", "),
+          list: stop.bad.map(([id, c]) => `ID ${id} (${serverError(c).text})`).join(", "),
+        })
+      : t(stop.latched ? "estop.doneLatched" : "estop.done", { rates: stop.rates.join(", "), time: clock(stop.at) });
 }
 
 // ---- status bar -----------------------------------------------------------------------------
