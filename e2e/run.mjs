@@ -202,7 +202,10 @@ test("a live plot pauses, holds a zoom, shows values on hover and exports CSV", 
       card.getByRole("button", { name: "CSV" }).click(),
     ]);
     const csv = readFileSync(await download.path(), "utf8");
-    assert.match(csv.split("\n")[0], /^t_s,position_deg,device_position_deg,speed_rpm,current_a,target_deg$/);
+    assert.match(
+      csv.split("\n")[0],
+      /^t_s,position_deg,device_position_deg,speed_rpm,current_a,target_deg,position_uncertain$/,
+    );
     assert.ok(csv.split("\n").length > 10);
   } finally {
     await page.close();

@@ -5,6 +5,7 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -17,6 +18,22 @@ from .ros2_cmd import RATE, SECONDS
 
 CHECKPOINT = Number("--checkpoint", 0.05, 60, "s")
 PORT_WAIT = Number("--port-wait", 0, 3600, "s")
+
+
+#: where a joint whose continuous position became uncertain is said (as the ROS 2 bridge does)
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+
+def note_uncertain(recorder: Any, bridge: Any, uncertain: set[int], stamp_ns: int, port: str) -> bool:
+    """When the joints whose continuous position may be off by whole turns change (nurimc.multiturn),
+    write the bridge's diagnostics (each joint's position_uncertain) to the recording; True if written."""
+    unsure = {j.id for j in bridge.joints if j.state is not None and j.state.position_uncertain}
+    if unsure == uncertain:
+        return False
+    uncertain.clear()
+    uncertain.update(unsure)
+    recorder.write(DIAGNOSTICS_TOPIC, bridge.diagnostics(stamp_ns, "nurimc record", port, {}))
+    return True
 
 
 def record(
@@ -115,6 +132,7 @@ def record(
             next_read = time.monotonic()
             outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each on stderr
             lost_since: float | None = None
+            uncertain: set[int] = set()  # joints whose continuous position may be off by whole turns
             while not stop.is_set():
                 try:
                     if shared is not None:  # attached: the holder's shared readings, no reads of our own
@@ -136,9 +154,11 @@ def record(
                     port_error.append(str(error))
                     stop.set()
                     return
-                message = bridge.joint_state(time.time_ns())
+                now_ns = time.time_ns()
+                message = bridge.joint_state(now_ns)
                 if message is not None:
                     recorder.joint_state(state_topic, message)
+                note_uncertain(recorder, bridge, uncertain, now_ns, o.port or "")
                 if shared is not None:
                     continue  # paced by the holder's readings
                 next_read = max(next_read + period, time.monotonic())
