@@ -283,6 +283,41 @@ test("an ID change in the setup view, then the motor is found at its new ID", as
   assert.deepEqual(await page.$$eval(".card", (cards) => cards.map((c) => Number(c.dataset.id))), [3, 7, 20]);
 });
 
+test("a sequence runs in direct mode, across rates", async () => {
+  await view("sequence");
+  await page.evaluate(() =>
+    window.dashboard.loadSequence({
+      format: "nurimc-sequence/1",
+      steps: [
+        { kind: "move", id: 3, degrees: 10, rpm: 600 },
+        { kind: "wait", seconds: 0.3 },
+        { kind: "set", id: 20, name: "position-kp", value: 60 },
+      ],
+    }),
+  );
+  await page.click("#seq-run");
+  await until(() => document.querySelector("#seq-status").dataset.state === "done", null, 60000);
+  const kp = await page.evaluate(
+    async () => (await window.dashboard.link.request("read_settings", { id: 20 })).settings["position-kp"],
+  );
+  assert.equal(kp, 60);
+});
+
+test("raw frames in direct mode: captured, and the exported traffic log is read by nurimc replay", async () => {
+  await view("raw");
+  await page.check("#raw-on");
+  await page.evaluate(() => window.dashboard.link.request("release", { id: 3 }));
+  await until(() =>
+    [...document.querySelectorAll("#raw-table tbody td:nth-child(4) code")].some(
+      (c) => c.textContent === "set_control",
+    ),
+  );
+  const [download] = await Promise.all([page.waitForEvent("download"), page.click("#raw-export")]);
+  const replayed = await run(NURIMC_BIN, ["replay", await download.path()]);
+  assert.match(replayed.stdout, /set_control/);
+  await page.uncheck("#raw-on");
+});
+
 test("the E-STOP turns every motor off, at every rate and in each line", async () => {
   await page.evaluate(() => window.dashboard.link.request("watch", { ids: [3, 7, 20] }));
   await page.click("#estop");
