@@ -176,6 +176,17 @@ test("a gain written in the settings view is shown verified, and the simulator's
   );
 });
 
+test("a gain of the RSA (another product line) is written in its own table and shown verified", async () => {
+  await view("settings");
+  await page.selectOption("#settings-motor", "7");
+  await until(() => document.querySelector("#setting-position-kp .value")?.textContent.trim());
+  await page.fill("#setting-position-kp input", "66");
+  await page.click("#setting-position-kp .write button");
+  await until(() => /ok|bad/.test(document.querySelector("#setting-position-kp .result").className));
+  assert.match(await page.getAttribute("#setting-position-kp .result", "class"), /ok/);
+  assert.match(JSON.stringify(simState()), /"kp":\s*66|"position_kp":\s*66/);
+});
+
 test("a step response shows its figures", async () => {
   await view("step");
   await page.selectOption("#step-motor", "12");
@@ -246,8 +257,11 @@ test("a garbled backup and a file of another product line are refused, nothing w
     buffer: Buffer.from(JSON.stringify(other)),
   });
   await page.waitForFunction(() => /another product line/.test(document.querySelector("#messages").textContent));
-  assert.ok(typeof before === "string", "the RSA is not read as an MC in direct mode: it says why");
   assert.match(await messages(), /nothing was written/);
+  const after = await page.evaluate(
+    async () => (await window.dashboard.link.request("read_settings", { id: 7 })).settings,
+  );
+  assert.deepEqual(after, before, "the RSA's settings are as they were");
   assert.equal(
     await page.evaluate(() => Object.keys(localStorage).filter((k) => k.startsWith("nurimc.restore")).length),
     0,
