@@ -209,9 +209,13 @@ test("a browser backup is restored by `nurimc restore`, and a `nurimc backup` is
   await (await downloaded).saveAs(file);
   const document_ = JSON.parse(readFileSync(file, "utf8"));
   assert.deepEqual(
-    document_.motors.map((m) => m.id),
-    [3, 12],
-    "the MC-line motors (RSA backup needs the Python console)",
+    document_.motors.map((m) => [m.id, m.product]),
+    [
+      [3, "mc"],
+      [7, "rsa"],
+      [12, "mc"],
+    ],
+    "every motor, each in its own line",
   );
   assert.equal(document_.motors[0].settings["position-kp"], 77);
   // the CLI restores it: change kp behind the page's back first, so there is something to restore

@@ -66,20 +66,11 @@ export async function directOp(link, op, args) {
     }
     case "step":
       return step(link, args);
-    case "backup": {
-      // the MC line's settings are read here; another line's are said to need the Python console
-      const targets = args.ids.map((id) => link.target(id));
-      const mc = targets.filter((t) => t.line === "mc" || t.line === "unknown");
-      for (const t of targets.filter((t) => !mc.includes(t)))
-        link.emit("motor_error", {
-          id: t.id,
-          kind: "info",
-          message: `not in this backup: it speaks the ${t.line} line, whose settings the Python console (nurimc backup) saves in this version`,
-        });
-      if (!mc.length)
-        throw new Error("backup: none of these motors is of the MC line; use nurimc backup for the others");
-      return lib.makeBackup(link.bus, mc);
-    }
+    case "backup": // every motor in its own line's table (the CLI's format)
+      return lib.makeBackup(
+        link.bus,
+        args.ids.map((id) => link.target(id)),
+      );
     case "restore": {
       const name = args.name ?? "backup";
       const document = lib.checkBackup(args.document, name); // the whole file first: nothing written from a bad one
