@@ -176,6 +176,17 @@ test("a gain written in the settings view is shown verified, and the simulator's
   );
 });
 
+test("a gain of the RSA (another product line) is written in its own table and shown verified", async () => {
+  await view("settings");
+  await page.selectOption("#settings-motor", "7");
+  await until(() => document.querySelector("#setting-position-kp .value")?.textContent.trim());
+  await page.fill("#setting-position-kp input", "66");
+  await page.click("#setting-position-kp .write button");
+  await until(() => /ok|bad/.test(document.querySelector("#setting-position-kp .result").className));
+  assert.match(await page.getAttribute("#setting-position-kp .result", "class"), /ok/);
+  assert.match(JSON.stringify(simState()), /"kp":\s*66|"position_kp":\s*66/);
+});
+
 test("a step response shows its figures", async () => {
   await view("step");
   await page.selectOption("#step-motor", "12");
@@ -198,9 +209,13 @@ test("a browser backup is restored by `nurimc restore`, and a `nurimc backup` is
   await (await downloaded).saveAs(file);
   const document_ = JSON.parse(readFileSync(file, "utf8"));
   assert.deepEqual(
-    document_.motors.map((m) => m.id),
-    [3, 12],
-    "the MC-line motors (RSA backup needs the Python console)",
+    document_.motors.map((m) => [m.id, m.product]),
+    [
+      [3, "mc"],
+      [7, "rsa"],
+      [12, "mc"],
+    ],
+    "every motor, each in its own line",
   );
   assert.equal(document_.motors[0].settings["position-kp"], 77);
   // the CLI restores it: change kp behind the page's back first, so there is something to restore
@@ -246,8 +261,11 @@ test("a garbled backup and a file of another product line are refused, nothing w
     buffer: Buffer.from(JSON.stringify(other)),
   });
   await page.waitForFunction(() => /another product line/.test(document.querySelector("#messages").textContent));
-  assert.ok(typeof before === "string", "the RSA is not read as an MC in direct mode: it says why");
   assert.match(await messages(), /nothing was written/);
+  const after = await page.evaluate(
+    async () => (await window.dashboard.link.request("read_settings", { id: 7 })).settings,
+  );
+  assert.deepEqual(after, before, "the RSA's settings are as they were");
   assert.equal(
     await page.evaluate(() => Object.keys(localStorage).filter((k) => k.startsWith("nurimc.restore")).length),
     0,
@@ -281,6 +299,41 @@ test("an ID change in the setup view, then the motor is found at its new ID", as
   await page.click("#discover");
   await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found === "20");
   assert.deepEqual(await page.$$eval(".card", (cards) => cards.map((c) => Number(c.dataset.id))), [3, 7, 20]);
+});
+
+test("a sequence runs in direct mode, across rates", async () => {
+  await view("sequence");
+  await page.evaluate(() =>
+    window.dashboard.loadSequence({
+      format: "nurimc-sequence/1",
+      steps: [
+        { kind: "move", id: 3, degrees: 10, rpm: 600 },
+        { kind: "wait", seconds: 0.3 },
+        { kind: "set", id: 20, name: "position-kp", value: 60 },
+      ],
+    }),
+  );
+  await page.click("#seq-run");
+  await until(() => document.querySelector("#seq-status").dataset.state === "done", null, 60000);
+  const kp = await page.evaluate(
+    async () => (await window.dashboard.link.request("read_settings", { id: 20 })).settings["position-kp"],
+  );
+  assert.equal(kp, 60);
+});
+
+test("raw frames in direct mode: captured, and the exported traffic log is read by nurimc replay", async () => {
+  await view("raw");
+  await page.check("#raw-on");
+  await page.evaluate(() => window.dashboard.link.request("release", { id: 3 }));
+  await until(() =>
+    [...document.querySelectorAll("#raw-table tbody td:nth-child(4) code")].some(
+      (c) => c.textContent === "set_control",
+    ),
+  );
+  const [download] = await Promise.all([page.waitForEvent("download"), page.click("#raw-export")]);
+  const replayed = await run(NURIMC_BIN, ["replay", await download.path()]);
+  assert.match(replayed.stdout, /set_control/);
+  await page.uncheck("#raw-on");
 });
 
 test("the E-STOP turns every motor off, at every rate and in each line", async () => {

@@ -43,7 +43,7 @@ test("the Korean catalog is Korean (Hangul in every entry that has words, apart 
     if (
       /[A-Za-z]{3,}/.test(
         text.replace(
-          /\{\w+\}|<\/?\w+>|nurimc\.browser\.js|nurimc-sequence\/1|nurimc( dashboard)?|Web Serial|Python|ChromeOS|Chromium|Chrome|Edge|Firefox|Safari|Windows|macOS|Linux|USB-RS485|https?:\/\/|localhost|JSON|CSV|PNG|EEPROM|RPM|bps|Kp|Ki|Kd|BLMC-H|RSAVW|RSA|MC|Esc|Shift|ID|CCW|CW|--port|nurimc\.browser\.js|docs\/dashboard\.md|nurimc-sequence\/1|ms|µs/g,
+          /\{\w+\}|<\/?\w+>|nurimc\.browser\.js|nurimc-sequence\/1|nurimc( dashboard)?|Web Serial|Python|ChromeOS|Chromium|Chrome|Edge|Firefox|Safari|Windows|macOS|Linux|USB-RS485|USB|https?:\/\/|localhost|JSON|CSV|PNG|EEPROM|RPM|bps|Kp|Ki|Kd|BLMC-H|RSAVW|RSA|MC|Esc|Shift|ID|CCW|CW|--port|nurimc\.browser\.js|docs\/dashboard\.md|nurimc-sequence\/1|ms|µs/g,
           "",
         ),
       )
@@ -122,4 +122,31 @@ test("the server's English errors are said in Korean, the original kept", () => 
     "English stays as the server said it",
   );
   assert.equal(format("{a} and {b}", { a: 1 }), "1 and {b}");
+});
+
+test("direct mode's messages (the TS library and direct-ops.js) are said in Korean too", () => {
+  const cases = [
+    [
+      "robot.json: ID 7 in the backup is mc (mc line) but the controller speaks the rsa line: a file from another product line; nothing was written",
+      "err.otherLine",
+    ],
+    [
+      "ID 7 speaks the rsa line: reading and writing it needs the Python console (nurimc dashboard) in this version",
+      "err.lineNeedsPython",
+    ],
+    [
+      "incomplete restore of robot.json: restore it again (only what still differs is written)",
+      "err.incompleteRestore",
+    ],
+    [
+      "robot.json: motors[0] (ID 1): settings.ratio: 1.05 is between the wire's steps; the nearest is 1.1",
+      "err.badBackup",
+    ],
+    ["writing to the serial port failed (unplugged?): NetworkError: The device has been lost.", "err.portGone"],
+  ];
+  for (const [message, key] of cases) {
+    const { text, detail } = serverError(message, "ko");
+    assert.equal(text, translate("ko", key, key === "err.incompleteRestore" ? { file: "robot.json" } : {}), message);
+    assert.equal(detail, message);
+  }
 });

@@ -17,6 +17,7 @@ import type { Bus } from "./bus/client.js";
 import { VerifyError } from "./bus/errors.js";
 import { fieldsOf, make } from "./codec.js";
 import { BAUD_RATES, PRODUCTS, PROTOCOL } from "./generated/tables.js";
+import { lineWritable, readLineSettings, setLineSetting } from "./linesettings.js";
 import { Motor } from "./motor.js";
 import { SETTINGS, type SettingSpec, type SettingValue, settingFromWire, settingToWire } from "./settings.js";
 import { toWire } from "./units.js";
@@ -199,20 +200,20 @@ const refuseLine = (target: Target): never => {
   );
 };
 
-/** Every setting of every motor (MC line), as the CLI's document. Leaves the bus at its old rate. */
+const isMc = (line: string): boolean => line === "mc" || line === "unknown";
+
+/** Every setting of every motor (each in its line's table), as the CLI's document. Leaves the bus at its old rate. */
 export async function makeBackup(bus: Bus, targets: readonly Target[], now = new Date()): Promise<BackupDocument> {
-  for (const t of targets) if (t.line !== "mc") refuseLine(t);
+  for (const t of targets) if (!isMc(t.line) && !PRODUCT_NAMES.includes(t.line)) refuseLine(t);
   const original = bus.baudRate;
   const motors: BackupMotor[] = [];
   try {
     for (const t of targets) {
       if (bus.baudRate !== t.baudrate) await bus.setBaudRate(t.baudrate);
-      motors.push({
-        id: t.id,
-        baudrate: t.baudrate,
-        product: "mc",
-        settings: await new Motor(bus, t.id).readSettings(),
-      });
+      const settings = isMc(t.line)
+        ? await new Motor(bus, t.id).readSettings()
+        : await readLineSettings(bus, t.line, t.id);
+      motors.push({ id: t.id, baudrate: t.baudrate, product: isMc(t.line) ? "mc" : t.line, settings });
     }
   } finally {
     if (bus.baudRate !== original) await bus.setBaudRate(original);
@@ -298,11 +299,11 @@ export async function restoreBackup(
         `${file}: the backup has ID ${motor.id}, which was not found on the bus; find it first (nothing was written)`,
       );
     const line = lineOfProduct(motor.product ?? "mc");
-    if (target.line !== line)
+    if ((isMc(target.line) ? "mc" : target.line) !== line)
       throw new BackupError(
         `${file}: ID ${motor.id} in the backup is ${motor.product} (${line} line) but the controller speaks the ${target.line} line: a file from another product line; nothing was written`,
       );
-    if (line !== "mc") refuseLine(target);
+    if (!isMc(line) && !PRODUCT_NAMES.includes(line)) refuseLine(target);
     plan.push([motor, target]);
   }
   const rows: RestoreRow[] = [];
@@ -311,7 +312,11 @@ export async function restoreBackup(
     for (const [motor, target] of plan) {
       if (bus.baudRate !== target.baudrate) await bus.setBaudRate(target.baudrate);
       journal.begin([motor.id], file);
-      rows.push(...(await restoreMotor(bus, motor, onRow)));
+      rows.push(
+        ...(isMc(target.line)
+          ? await restoreMotor(bus, motor, onRow)
+          : await restoreLineMotor(bus, target.line, motor, onRow)),
+      );
       journal.done([motor.id]);
     }
   } finally {
@@ -359,6 +364,28 @@ async function restoreMotor(bus: Bus, motor: BackupMotor, onRow: (row: RestoreRo
       rows.push(row);
       onRow(row);
     }
+  }
+  return rows;
+}
+
+/** Another line's motor: each setting its line can write that differs, written and read back (setLineSetting). */
+async function restoreLineMotor(
+  bus: Bus,
+  line: string,
+  motor: BackupMotor,
+  onRow: (row: RestoreRow) => void,
+): Promise<RestoreRow[]> {
+  const now = await readLineSettings(bus, line, motor.id);
+  const rows: RestoreRow[] = [];
+  for (const [name, wanted] of Object.entries(motor.settings)) {
+    const spec = SETTINGS.find((s) => s.name === name) as SettingSpec;
+    if (spec.name === "control" || !lineWritable(line, spec)) continue; // control is left as it is; a setting the line lacks
+    const before = now[name] as SettingValue;
+    if (before === settingFromWire(spec, settingToWire(spec, wanted))) continue;
+    const after = await setLineSetting(bus, line, motor.id, name, wanted);
+    const row = { id: motor.id, setting: name, before, after, verified: true };
+    rows.push(row);
+    onRow(row);
   }
   return rows;
 }

@@ -17,6 +17,7 @@ export * from "./generated/host.js";
 export * from "./generated/messages.js";
 export * from "./generated/tables.js";
 export * from "./lines.js";
+export * from "./linesettings.js";
 export * from "./motor.js";
 export * from "./parser.js";
 export { type WebSerialDevice, WebSerialPort } from "./ports/webserial.js";

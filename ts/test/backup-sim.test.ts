@@ -15,6 +15,7 @@ import { backupText, makeBackup, parseBackup, restoreBackup, StorageJournal } fr
 import { Bus } from "../src/bus/client.js";
 import type { BytePort } from "../src/bus/port.js";
 import { discover, type Found } from "../src/discovery.js";
+import { readLineSettings, setLineSetting } from "../src/linesettings.js";
 import { Motor } from "../src/motor.js";
 import { NodeSerialPort } from "../src/ports/node.js";
 
@@ -46,6 +47,11 @@ function startSim(args: string[]): Promise<ChildProcess> {
 
 const cli = (...args: string[]) =>
   run(NURIMC, ["--port", LINK, "--baud", "57600", "--id", "3", ...args], {
+    env: { ...process.env, NURIMC_STATE_DIR: join(DIR, "state"), NO_COLOR: "1" },
+  });
+
+const cliAt = (rate: number, id: number, ...args: string[]) =>
+  run(NURIMC, ["--port", LINK, "--baud", String(rate), "--id", String(id), ...args], {
     env: { ...process.env, NURIMC_STATE_DIR: join(DIR, "state"), NO_COLOR: "1" },
   });
 
@@ -165,5 +171,29 @@ describe.skipIf(!existsSync(NURIMC))("backup and restore with the CLI, against t
     await restoreBackup(bus, document, found, journal, "cli.json");
     expect(journal.pending(3)).toBeNull();
     expect(await new Motor(bus, 3).get("position-kp")).toBe(kp);
+  }, 60_000);
+
+  it("backs up an RSA in its own table; `nurimc restore` accepts it, and the library restores it", async () => {
+    const rsa = found.filter((f) => f.id === 7);
+    const mine = await makeBackup(bus, rsa);
+    expect(mine.motors[0]?.product).toBe("rsa");
+    expect(Object.keys(mine.motors[0]?.settings ?? {})).not.toContain("resolution");
+    const kp = mine.motors[0]?.settings["position-kp"] as number;
+    const file = join(DIR, "rsa.json");
+    writeFileSync(file, backupText(mine));
+    await bus.setBaudRate(38400);
+    await setLineSetting(bus, "rsa", 7, "position-kp", kp === 44 ? 45 : 44);
+    await bus.close();
+    const { stdout } = await cliAt(38400, 7, "restore", file);
+    expect(stdout).toContain("position-kp");
+    await open();
+    await bus.setBaudRate(38400);
+    expect((await readLineSettings(bus, "rsa", 7))["position-kp"]).toBe(kp);
+    await setLineSetting(bus, "rsa", 7, "position-kp", kp === 43 ? 42 : 43);
+    const journal = new StorageJournal(memoryStorage(), "sim");
+    const rows = await restoreBackup(bus, mine, found, journal, "rsa.json");
+    expect(rows).toEqual([expect.objectContaining({ id: 7, setting: "position-kp", after: kp, verified: true })]);
+    await bus.setBaudRate(38400);
+    expect((await readLineSettings(bus, "rsa", 7))["position-kp"]).toBe(kp);
   }, 60_000);
 });

@@ -11,12 +11,18 @@ import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import { DEFAULT_TIMING } from "../src/bus/timing.js";
 import { type DiscoveryProgress, discover, walkWaitMs } from "../src/discovery.js";
+import { HOST_TIMING } from "../src/generated/host.js";
+import { readLineSettings, setLineSetting } from "../src/linesettings.js";
 import { NodeSerialPort } from "../src/ports/node.js";
 
 const ROOT = fileURLToPath(new URL("../..", import.meta.url));
 const PYTHON = join(ROOT, ".venv", "bin", "python");
 const LINK = join(tmpdir(), `nurimc-ts-disc-${process.pid}`);
 const MOTORS = ["3@57600:mc", "7@38400:rsa", "12@250000:mc"];
+// The simulator is a Python process on a shared, busy 2-core host (vitest runs files in parallel):
+// its answers can come later than a pty's 2 ms allows; the deadlines of an unknown USB adapter
+// (as the console's direct mode uses) leave room for that.
+const BUSY_HOST = { timing: { latencyMs: HOST_TIMING.usbAdapterLatencyMs } };
 
 function startSim(args: string[]): Promise<ChildProcess> {
   return new Promise((resolve, reject) => {
@@ -51,7 +57,7 @@ describe.skipIf(!existsSync(PYTHON))("discovery against the simulator", () => {
   let bus: Bus;
   beforeAll(async () => {
     sim = await startSim(MOTORS.flatMap((m) => ["--motor", m]).concat(["--ids", "", "--baud", "9600"]));
-    bus = new Bus(await NodeSerialPort.open(LINK, 9600));
+    bus = new Bus(await NodeSerialPort.open(LINK, 9600), BUSY_HOST);
   }, 30_000);
   afterAll(async () => {
     await bus?.close();
@@ -79,7 +85,7 @@ describe.skipIf(!existsSync(PYTHON))("discovery when answers collide", () => {
   let bus: Bus;
   beforeAll(async () => {
     sim = await startSim(["--ids", "1,2,5", "--baud", "115200"]);
-    bus = new Bus(await NodeSerialPort.open(LINK, 9600));
+    bus = new Bus(await NodeSerialPort.open(LINK, 9600), BUSY_HOST);
   }, 30_000);
   afterAll(async () => {
     await bus?.close();
@@ -101,4 +107,33 @@ describe.skipIf(!existsSync(PYTHON))("discovery when answers collide", () => {
     ]);
     expect(walked.length).toBeGreaterThan(200); // the walk happened: every ID was asked
   }, 120_000);
+});
+
+describe.skipIf(!existsSync(PYTHON))("settings of another product line", () => {
+  let sim: ChildProcess;
+  let bus: Bus;
+  beforeAll(async () => {
+    sim = await startSim(["--motor", "7@38400:rsa", "--motor", "9@38400:sm", "--ids", "", "--baud", "9600"]);
+    bus = new Bus(await NodeSerialPort.open(LINK, 38400));
+  }, 30_000);
+  afterAll(async () => {
+    await bus?.close();
+    sim?.kill("SIGTERM");
+  });
+
+  it("reads an RSA's settings in its own table and writes a gain, read back", async () => {
+    const before = await readLineSettings(bus, "rsa", 7);
+    expect(Object.keys(before)).toContain("position-kp");
+    expect(Object.keys(before)).not.toContain("resolution"); // RSA has none
+    const kp = before["position-kp"] === 70 ? 71 : 70;
+    expect(await setLineSetting(bus, "rsa", 7, "position-kp", kp)).toBe(kp);
+    const after = await readLineSettings(bus, "rsa", 7);
+    expect(after["position-kp"]).toBe(kp);
+    expect(after["position-ki"]).toBe(before["position-ki"]); // the shared command kept the others
+  }, 30_000);
+
+  it("refuses a setting the line cannot write, before sending anything", async () => {
+    await expect(setLineSetting(bus, "sm", 9, "speed-kp", 5)).rejects.toThrow(/cannot be written .* sm line/);
+    await expect(setLineSetting(bus, "rsa", 7, "resolution", 5)).rejects.toThrow(/cannot be written/);
+  });
 });

@@ -81,10 +81,17 @@ export class DirectLink {
     const target = this.target(id);
     if (target.line !== "mc" && target.line !== "unknown")
       throw new Error(
-        `ID ${id} speaks the ${target.line} line: reading and writing it needs the Python console (nurimc dashboard) in this version`,
+        `ID ${id} speaks the ${target.line} line: its settings and the E-STOP work here; moving it needs the Python console (nurimc dashboard) in this version`,
       );
-    if (this.bus.baudRate !== target.baudrate) await this.bus.setBaudRate(target.baudrate);
+    await this.atRate(id);
     return this.motor(id);
+  }
+
+  /** The bus at the motor's rate (any line). */
+  async atRate(id) {
+    const target = this.target(id);
+    if (this.bus.baudRate !== target.baudrate) await this.bus.setBaudRate(target.baudrate);
+    return target;
   }
 
   /** Run `task` after every operation begun before it (the E-STOP's broadcast never waits for this). */

@@ -9,6 +9,7 @@ const VERIFY_MS = 1500; // how long a changed ID or rate is looked for (the EEPR
 const ZERO_WAIT_MS = 1000;
 const POSITION_LIMIT = 655.33;
 
+const MC = ["mc", "unknown"]; // the lines the library's Motor drives (MC, BLMC-H)
 const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 
 /** The ops direct mode carries out here; the rest are the DirectLink's own (watch, move, frames, estop...). */
@@ -44,30 +45,32 @@ export async function directOp(link, op, args) {
     case "discover":
       return discover(link, args.rates ?? null);
     case "read_settings": {
+      const line = link.target(args.id).line;
+      if (!MC.includes(line)) {
+        await link.atRate(args.id); // another line: its own table (spec/lines.json), the settings it has
+        return { id: args.id, settings: await lib.readLineSettings(link.bus, line, args.id) };
+      }
       const motor = await link.at(args.id);
       return { id: args.id, settings: await motor.readSettings() };
     }
     case "set": {
+      const line = link.target(args.id).line;
+      if (!MC.includes(line)) {
+        await link.atRate(args.id);
+        const value = await lib.setLineSetting(link.bus, line, args.id, args.name, args.value);
+        return { id: args.id, name: args.name, value, verified: true };
+      }
       const motor = await link.at(args.id);
       const value = await motor.set(args.name, args.value); // two agreeing reads for shared commands; read back
       return { id: args.id, name: args.name, value, verified: true };
     }
     case "step":
       return step(link, args);
-    case "backup": {
-      // the MC line's settings are read here; another line's are said to need the Python console
-      const targets = args.ids.map((id) => link.target(id));
-      const mc = targets.filter((t) => t.line === "mc" || t.line === "unknown");
-      for (const t of targets.filter((t) => !mc.includes(t)))
-        link.emit("motor_error", {
-          id: t.id,
-          kind: "info",
-          message: `not in this backup: it speaks the ${t.line} line, whose settings the Python console (nurimc backup) saves in this version`,
-        });
-      if (!mc.length)
-        throw new Error("backup: none of these motors is of the MC line; use nurimc backup for the others");
-      return lib.makeBackup(link.bus, mc);
-    }
+    case "backup": // every motor in its own line's table (the CLI's format)
+      return lib.makeBackup(
+        link.bus,
+        args.ids.map((id) => link.target(id)),
+      );
     case "restore": {
       const name = args.name ?? "backup";
       const document = lib.checkBackup(args.document, name); // the whole file first: nothing written from a bad one

@@ -104,6 +104,14 @@ export function startLanguage() {
 // ---- errors the server (or the TS library) sends in English, shown in the page's language ----
 // Each rule: a pattern of the library's English message and the catalog key that says it.
 const ERROR_RULES = [
+  [/another product line/i, "err.otherLine"],
+  [/needs the Python console|the Python console \(nurimc backup\)/i, "err.lineNeedsPython"],
+  [/^incomplete restore of /i, "err.incompleteRestore", (m) => ({ file: m.match(/of (.+?): /)?.[1] ?? "?" })],
+  [
+    /not a nurimc backup|between the wire's steps|not a setting|appears twice|unknown field|a backup holds/i,
+    "err.badBackup",
+  ],
+  [/serial port failed|serial port is closed|writing to the serial port failed|unplugged/i, "err.portGone"],
   [/^stop pending/i, "err.stopPending"],
   [/cannot reopen/i, "err.cannotReopen"],
   [/^port \S+ is lost|port lost/i, "err.portLost"],

@@ -301,6 +301,12 @@ export default {
   "err.simPort": "the simulated bus cannot switch port; start nurimc dashboard with --port",
   "err.needsServer": "this needs the server: run nurimc dashboard and open its address",
   "err.notConnected": "not connected",
+  "err.otherLine": "this backup is of another product line than the controller: nothing was written",
+  "err.lineNeedsPython":
+    "this controller's product line is configured in the Python console (nurimc dashboard) in this version",
+  "err.incompleteRestore": "incomplete restore of {file}: restore it again (only what still differs is written)",
+  "err.badBackup": "not a backup file nurimc wrote: nothing was written (the original message names the field)",
+  "err.portGone": "the serial port is gone (USB cable unplugged?): nothing more was sent; plug it in and connect again",
   "err.other": "the server reported an error",
   "choice.on": "on",
   "choice.off": "off",
