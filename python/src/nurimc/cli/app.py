@@ -66,6 +66,7 @@ COMMAND_MODULES = (
 LONG_RUNNING = frozenset({"watch", "sniff", "dashboard", "sim", "ros2", "record"})
 _invoked = [""]  # the command being run (set once the global options are parsed)
 
+
 class LazyGroup(typer.core.TyperGroup):
     """The root command: each command module is imported when one of its commands is looked up
     to run; the help lists the not-yet-loaded commands from the index."""
@@ -217,6 +218,7 @@ def _built(catalog_file: str | None) -> Any:
     the in-process tests call main() thousands of times), its help in that language. Command
     modules are imported as their commands are looked up (LazyGroup)."""
     command = typer.main.get_command(root)
+    assert isinstance(command, LazyGroup)
     command._loaded = set()
     command._translated = bool(catalog_file)
     if catalog_file:
