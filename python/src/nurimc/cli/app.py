@@ -236,7 +236,8 @@ def _built(catalog_file: str | None) -> Any:
     """The click command typer builds from `app`, built once per language (16 ms each time:
     the in-process tests call main() thousands of times), its help in that language. Command
     modules are imported as their commands are looked up (LazyGroup)."""
-    command: Any = typer.main.get_command(root)
+    command = typer.main.get_command(root)
+    assert isinstance(command, LazyGroup)
     command._loaded = set()
     command._translated = bool(catalog_file)
     if catalog_file:
