@@ -9,7 +9,7 @@ no peers at all: it is found only because the bridges keep asking. It must find 
 within 5 s of starting and drive a joint on each.
 
 Needs root (network namespaces; the test makes and deletes them, nothing else is touched) and
-takes about 75 s (`NURIMC_NETNS_LATE` shortens the wait for a quick run).
+takes about 75 s; the two rclpy tests about 35 s each (`NURIMC_NETNS_LATE` shortens the late start).
 """
 
 from __future__ import annotations

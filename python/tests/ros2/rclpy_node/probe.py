@@ -222,7 +222,7 @@ def restart(probe: Probe) -> dict:
             break
         if phase == 1 and os.environ.get("PROBE_NEW_WRITER"):  # a writer whose first sample this is
             positions = node.create_publisher(Float64MultiArray, f"{ns}/position_commands", 10)
-            probe.spin(1.0, until=lambda: positions.get_subscription_count() > 0)
+            probe.spin(1.0, until=lambda p=positions: p.get_subscription_count() > 0)
         sent = time.monotonic()
         out.setdefault("matched_at_publish", []).append(positions.get_subscription_count())
         positions.publish(Float64MultiArray(data=[target]))
