@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from typing import Any
 
 from cyclonedds.core import DDSException, Listener, Policy, Qos
@@ -101,6 +102,8 @@ class Participant:
         self._topics: dict[str, Topic[Any]] = {}
         #: the ROS endpoints (name, ROS type, reader or writer) for the node graph (graph.py)
         self.endpoints: list[tuple[str, str, DataReader[Any] | DataWriter[Any]]] = []
+        #: told the ROS name of a reader's topic when a writer with an incompatible QoS is found
+        self.on_incompatible_qos: Callable[[str], None] | None = None
 
     def topic(self, ros_name: str, data_type: type[IdlStruct]) -> Topic[Any]:
         name = dds_topic(ros_name)
@@ -114,7 +117,13 @@ class Participant:
         return writer
 
     def reader(self, ros_name: str, data_type: type[IdlStruct], on_data: Any = None) -> DataReader[Any]:
-        listener = Listener(on_data_available=on_data) if on_data is not None else None  # type: ignore[no-untyped-call]
+        callbacks: dict[str, Any] = {}
+        if on_data is not None:
+            callbacks["on_data_available"] = on_data
+        if self.on_incompatible_qos is not None:  # qoswatch.py: who publishes with a QoS we cannot take
+            report = self.on_incompatible_qos
+            callbacks["on_requested_incompatible_qos"] = lambda reader, status: report(ros_name)
+        listener = Listener(**callbacks) if callbacks else None  # type: ignore[no-untyped-call]
         qos = endpoint_qos(data_type)
         reader = DataReader(self.participant, self.topic(ros_name, data_type), qos=qos, listener=listener)
         self.endpoints.append((ros_name, data_type.__idl_typename__, reader))

@@ -32,6 +32,7 @@ from .coalesce import CommandQueue
 from .dds import Participant
 from .graph import NodeAnnouncer
 from .names import topic
+from .qoswatch import IncompatibleWriters
 
 DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
 DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
@@ -90,6 +91,9 @@ class BridgeNode:
         self._thread: threading.Thread | None = None
         self.done = threading.Event()
         self.failure: str | None = None
+        #: a command publisher with an incompatible QoS (best effort) is logged once, by node name
+        self.qos_watch = IncompatibleWriters(participant.participant, self._log)
+        participant.on_incompatible_qos = self.qos_watch.on_incompatible
         self._state_writer = participant.writer(self.joint_states_topic, msgs.JointState)
         self._diagnostics_writer = participant.writer("/diagnostics", msgs.DiagnosticArray)
         self._readers = [

@@ -10,6 +10,7 @@ saw, and the pytest side (test_rclpy.py) judges it.
 import functools
 import json
 import math
+import os
 import statistics
 import sys
 import time
@@ -219,6 +220,9 @@ def restart(probe: Probe) -> dict:
         if not probe.spin(60, until=lambda count=count: len(probe.states) > count):
             out["reach_s"].append(None)
             break
+        if phase == 1 and os.environ.get("PROBE_NEW_WRITER"):  # a writer whose first sample this is
+            positions = node.create_publisher(Float64MultiArray, f"{ns}/position_commands", 10)
+            probe.spin(1.0, until=lambda p=positions: p.get_subscription_count() > 0)
         sent = time.monotonic()
         out.setdefault("matched_at_publish", []).append(positions.get_subscription_count())
         positions.publish(Float64MultiArray(data=[target]))
