@@ -18,7 +18,7 @@ COMMAND_INDEX: dict[str, tuple[tuple[str, str | None, str | None, bool], ...]] =
         ('hold', 'Control on, holding the present position.\n\nExample: nurimc --port /dev/ttyUSB0 --id 1 hold', None, False),
     ),
     'settings_cmd': (
-        ('get', 'Read one setting, in physical units.\n\nExample: nurimc --port /dev/ttyUSB0 --id 1 get ratio', None, False),
+        ('get', 'Read settings, in physical units (one name, or several: get ratio resolution).\n\nExample: nurimc --port /dev/ttyUSB0 --id 1 get ratio', None, False),
         ('set', 'Write one setting and verify it by reading it back.\n\nExample: nurimc --port /dev/ttyUSB0 --id 1 set response-time 300us', None, False),
         ('backup', 'Save every setting of every motor (--id, or all found at --baud) to a file.\n\nExample: nurimc --port /dev/ttyUSB0 backup robot.json', None, False),
         ('restore', 'Write back every setting that differs from a backup (each verified).\n\nExample: nurimc --port /dev/ttyUSB0 restore robot.json', None, False),
@@ -58,5 +58,8 @@ COMMAND_INDEX: dict[str, tuple[tuple[str, str | None, str | None, bool], ...]] =
     'recording_cmd': (
         ('inspect', 'Summarise an MCAP recording: topics, message counts, time span, motors.\n\nExample: nurimc inspect run.mcap', None, False),
         ('export', "Write a recording's joint samples as CSV: one row per sample, time in seconds, units in the header.\n\nExample: nurimc export run.mcap --csv run.csv", None, False),
+    ),
+    'zero_cmd': (
+        ('set-zero', 'Make the present position zero (position reset) and verify it by reading the position back.\n\nExample: nurimc --port /dev/ttyUSB0 --id 1 set-zero', None, False),
     ),
 }
