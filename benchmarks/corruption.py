@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from nurimc import Bus, NurimcError
-from nurimc.settings import SETTINGS
+from nurimc.procedures.settings import SETTINGS
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.transport import SerialTransport
 

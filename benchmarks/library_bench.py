@@ -36,7 +36,7 @@ from typing import Any
 import serial
 
 from nurimc import Bus, Group, MotorState, NurimcError
-from nurimc.discovery import discover
+from nurimc.procedures.discovery import discover
 from nurimc.protocol import RequestPosition
 from nurimc.sim import FaultConfig, SimBus
 

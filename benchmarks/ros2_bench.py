@@ -47,7 +47,7 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randrange(100, 
 
 from mcap.reader import make_reader  # noqa: E402
 
-from nurimc.group import stagger_slot  # noqa: E402
+from nurimc.procedures.group import stagger_slot  # noqa: E402
 from nurimc.protocol import StreamParser  # noqa: E402
 from nurimc.ros2.msgs import Frame  # noqa: E402
 from ros2.peer import JointState, Peer, command  # noqa: E402 - the tests' independent participant

@@ -66,7 +66,9 @@ def ready_line(process: subprocess.Popen[str], timeout: float = 60) -> str:
 @contextmanager
 def started(argv: list[str], ready: bool = True) -> Iterator[subprocess.Popen[str]]:
     out = subprocess.PIPE if ready else subprocess.DEVNULL
-    process = subprocess.Popen(argv, stdout=out, stderr=subprocess.DEVNULL, text=True, env={**os.environ, "NO_COLOR": "1"})
+    process = subprocess.Popen(
+        argv, stdout=out, stderr=subprocess.DEVNULL, text=True, env={**os.environ, "NO_COLOR": "1"}
+    )
     try:
         if ready:
             ready_line(process)

@@ -3,7 +3,7 @@
 
 For each plant (sim/plant.py): `tune(loop="position", goal=..., apply=True)` from the MC
 factory gains, then an independent 15° step with the starting gains and one with the chosen
-gains (measured here with nurimc.stepresponse, not by the tuner). Recorded: trials used,
+gains (measured here with nurimc.procedures.stepresponse, not by the tuner). Recorded: trials used,
 aborted trials, gains, the independent figures before and after, the simulated time the tune
 took (what it would take on a motor at 115200 bps, EEPROM busy windows included) and the host's
 CPU time for it. Virtual time: the figures do not depend on how busy the host is; the CPU time
@@ -23,12 +23,12 @@ from pathlib import Path
 from typing import Any
 
 from nurimc import Bus
-from nurimc.client.clock import VirtualClock
+from nurimc.core.clock import VirtualClock
+from nurimc.procedures.stepresponse import ResponseFigures, response_figures
+from nurimc.procedures.tuning import GOALS
 from nurimc.sim import SimBus
 from nurimc.sim.plant import Plant
-from nurimc.stepresponse import ResponseFigures, response_figures
 from nurimc.transport import SerialTransport
-from nurimc.tuning import GOALS
 
 OUT = Path(__file__).resolve().parent / "results" / "tune.json"
 START = (50, 0, 10)

@@ -45,10 +45,10 @@ from pathlib import Path
 from typing import Any
 
 from nurimc import Bus, Group, MotorState, NurimcError
-from nurimc.client.clock import VirtualClock
-from nurimc.client.timing import MAX_RESPONSE_TIME
-from nurimc.discovery import RateSkipped, discover
-from nurimc.multiturn import WRAP_DEGREES
+from nurimc.core.clock import VirtualClock
+from nurimc.core.timing import MAX_RESPONSE_TIME
+from nurimc.procedures.discovery import RateSkipped, discover
+from nurimc.procedures.multiturn import WRAP_DEGREES
 from nurimc.protocol import BAUD_RATES, DEVICE_DEFAULTS, PositionFeedback, decode
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.sim.controller import Reply

@@ -92,7 +92,7 @@ class Relay(threading.Thread):
 def check_log(path: Path) -> str:
     """The traffic log holds the move and a later feedback at the target; returns a summary."""
     sys.path.insert(0, str(ROOT / "python" / "src"))
-    from nurimc.client.log import replay
+    from nurimc.transport.trafficlog import replay
 
     moved = reached = False
     frames = 0

@@ -20,7 +20,7 @@ def probe(binary: str, path: str) -> tuple[int, str]:
 
 
 def main() -> int:
-    from nurimc.client.sync import Bus
+    from nurimc.drivers.sync import Bus
     from nurimc.errors import PortError
 
     binary = sys.argv[1]

@@ -98,12 +98,12 @@ def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
 def test_the_reader_sees_every_kind_of_import() -> None:
     graph = import_graph()
     assert len(graph) > 50
-    assert "nurimc.motor" in graph["nurimc.client.sync"]  # from ..motor import Motor
-    assert "nurimc.client.core" in graph["nurimc.motor"]  # from .client.core import BusCore
-    assert "nurimc.client.sync" in graph["nurimc"]  # under if TYPE_CHECKING: (and the lazy table)
-    assert "nurimc.client.aio" in graph["nurimc"]  # importlib.import_module(".client.aio", __name__)
+    assert "nurimc.procedures.motor" in graph["nurimc.drivers.sync"]  # from ..motor import Motor
+    assert "nurimc.core.buscore" in graph["nurimc.procedures.motor"]  # from .client.core import BusCore
+    assert "nurimc.drivers.sync" in graph["nurimc"]  # under if TYPE_CHECKING: (and the lazy table)
+    assert "nurimc.drivers.aio" in graph["nurimc"]  # importlib.import_module(".client.aio", __name__)
     assert "nurimc.protocol.units" in graph["nurimc.protocol.schema"]  # inside a function
-    assert "nurimc.discovery" in graph["nurimc.cli.ros2_cmd"]  # inside a function
+    assert "nurimc.procedures.discovery" in graph["nurimc.cli.ros2_cmd"]  # inside a function
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
 

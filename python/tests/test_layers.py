@@ -26,16 +26,37 @@ def layers() -> dict[str, int]:
     return out
 
 
+#: the package itself: its row names its `__init__` only, never its submodules (no catch-all row)
+TOP = "nurimc"
+
+
 def layer_of(module: str, table: dict[str, int]) -> int | None:
-    matches = [p for p in table if module == p or module.startswith(p + ".")]
+    matches = [p for p in table if module == p or (p != TOP and module.startswith(p + "."))]
     return table[max(matches, key=len)] if matches else None
 
 
 def test_the_table_is_read() -> None:
     table = layers()
-    assert table["nurimc.protocol"] == 0 and table["nurimc.client.core"] == 3 and table["nurimc.client"] == 5
-    assert layer_of("nurimc.client.core", table) == 3 and layer_of("nurimc.client.aio", table) == 5
-    assert layer_of("nurimc.protocol.units", table) == 0 and layer_of("nurimc.sim.bus", table) == 6
+    assert table["nurimc.protocol"] == 0 and table["nurimc.core"] == 2 and table["nurimc.drivers"] == 5
+    assert layer_of("nurimc.core.buscore", table) == 2 and layer_of("nurimc.drivers.aio", table) == 5
+    assert layer_of("nurimc.protocol.units", table) == 0 and layer_of("nurimc.sim.bus", table) == 7
+
+
+def test_a_module_no_row_names_has_no_layer() -> None:
+    """The top-level row is no catch-all: a new module must be placed in the table by hand."""
+    table = layers()
+    assert layer_of("nurimc", table) == table[TOP]
+    assert layer_of("nurimc.brand_new_module", table) is None
+    assert layer_of("nurimc.brand_new_package.part", table) is None
+    assert layer_of("nurimc.procedures.brand_new", table) == table["nurimc.procedures"]
+
+
+def test_the_folders_are_the_layers() -> None:
+    """Below the applications, a layer is a folder (or, for the foundations, a named module)."""
+    table = layers()
+    for name, number in table.items():
+        if 0 < number < 7 and name != TOP:
+            assert name.count(".") == 1, f"{name}: a layer row names a top-level folder or module"
 
 
 def test_every_module_has_a_layer_and_every_import_points_down() -> None:
@@ -56,5 +77,5 @@ def test_every_module_has_a_layer_and_every_import_points_down() -> None:
 
 def test_the_drivers_do_not_import_each_other() -> None:
     graph = import_graph()
-    assert "nurimc.client.sync" not in graph["nurimc.client.aio"]
-    assert "nurimc.client.aio" not in graph["nurimc.client.sync"]
+    assert "nurimc.drivers.sync" not in graph["nurimc.drivers.aio"]
+    assert "nurimc.drivers.aio" not in graph["nurimc.drivers.sync"]

@@ -1,4 +1,4 @@
-"""nurimc.sigrok's own reading of sigrok session files (no sigrok-cli): the baud rate told from
+"""nurimc.recording.sigrok's own reading of sigrok session files (no sigrok-cli): the baud rate told from
 the pulses at several rates, a channel in the second byte of 16-channel samples, bad files."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from synth import Line, capture, expected_frames
 from test_replay import in_range_frame
 
 from nurimc.errors import InputError
-from nurimc.sigrok import read_capture
+from nurimc.recording.sigrok import read_capture
 
 
 def session(path: Path, samples: bytes, samplerate: str, unitsize: int = 1, probes: int = 8) -> Path:

@@ -30,7 +30,7 @@ const CASES = [
 const PY = `
 import json, sys, time
 from nurimc import Bus
-from nurimc.discovery import discover
+from nurimc.procedures.discovery import discover
 rates = json.loads(sys.argv[2])
 with Bus.open(sys.argv[1], baudrate=9600) as bus:
     t = time.perf_counter()
@@ -83,7 +83,7 @@ for (const c of CASES) {
 }
 const out = {
   benchmark:
-    "discovery across rates: TypeScript (ts/src/discovery.ts) and Python (nurimc.discovery) on one simulator pty",
+    "discovery across rates: TypeScript (ts/src/discovery.ts) and Python (nurimc.procedures.discovery) on one simulator pty",
   host: {
     cpus: cpus().length,
     loadavg_1min: Number(loadavg()[0].toFixed(2)),

@@ -256,7 +256,7 @@ export class Motor {
   /**
    * A setting's answer once two reads agree (at most CONFIRM_READS): noise that keeps the 8-bit
    * checksum changes an answer at random, and a write built from one read would carry it into
-   * the controller's EEPROM (docs/library.md, Verified writes; as nurimc.settings.confirmed_answer).
+   * the controller's EEPROM (docs/library.md, Verified writes; as nurimc.procedures.settings.confirmed_answer).
    */
   private async confirmedFields(spec: SettingSpec): Promise<Record<string, number>> {
     const seen: string[] = [];

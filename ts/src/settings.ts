@@ -1,7 +1,7 @@
 /**
  * Every controller setting by name, in physical units: the table of spec/settings.json
  * (generated into generated/settings.ts), the same names and input rules as the Python
- * library (`nurimc.settings`) and the CLI: "position-kp", "ratio", "control", ...
+ * library (`nurimc.procedures.settings`) and the CLI: "position-kp", "ratio", "control", ...
  */
 import { SETTINGS, type SettingSpec } from "./generated/settings.js";
 import { fromWire, toWire, UnitRangeError } from "./units.js";

@@ -54,7 +54,7 @@ function outcome(result: Message | Error): Record<string, unknown> {
   return { name: result.name };
 }
 
-/** The window of a broadcast read of `count` staggered IDs (as nurimc.group.broadcast_window). */
+/** The window of a broadcast read of `count` staggered IDs (as nurimc.procedures.group.broadcast_window). */
 function broadcastWindowMs(count: number, slot: number): number {
   const { baud, latency_ms, margin_ms } = shared.timing;
   return (count + 1) * slot * 0.1 + wireTimeMs(18, baud) + 2 * latency_ms + margin_ms;

@@ -15,17 +15,17 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from .version import __version__ as __version__
 
 # name -> module that defines it (relative to this package)
 _LAZY = {
-    "AsyncBus": ".client.aio",
-    "AsyncGroup": ".group",
-    "AsyncMotor": ".client.aio",
-    "Bus": ".client.sync",
-    "Group": ".group",
-    "Motor": ".motor",
-    "MotorState": ".motor",
+    "AsyncBus": ".drivers.aio",
+    "AsyncGroup": ".procedures.group",
+    "AsyncMotor": ".drivers.aio",
+    "Bus": ".drivers.sync",
+    "Group": ".procedures.group",
+    "Motor": ".procedures.motor",
+    "MotorState": ".procedures.motor",
     "ConfirmationRequired": ".errors",
     "ControllerBusy": ".errors",
     "CorruptedAnswer": ".errors",
@@ -59,8 +59,8 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from .client.aio import AsyncBus, AsyncMotor
-    from .client.sync import Bus
+    from .drivers.aio import AsyncBus, AsyncMotor
+    from .drivers.sync import Bus
     from .errors import (
         ConfirmationRequired,
         ControllerBusy,
@@ -73,8 +73,8 @@ if TYPE_CHECKING:
         SettingNotApplied,
         UnexpectedAnswer,
     )
-    from .group import AsyncGroup, Group
-    from .motor import Motor, MotorState
+    from .procedures.group import AsyncGroup, Group
+    from .procedures.motor import Motor, MotorState
 
 
 def __getattr__(name: str) -> Any:

@@ -12,12 +12,12 @@ import sys
 from collections.abc import Iterator
 from typing import Any, BinaryIO
 
-from .client.core import BusCore
+from .core.buscore import BusCore
 from .errors import ValueOutOfRange
-from .motor import MotorProcedures
-from .multiturn import signed_degrees
+from .procedures.motor import MotorProcedures
+from .procedures.multiturn import signed_degrees
+from .procedures.settings import SETTINGS
 from .protocol import DecodeError, EncodeError, Line, StreamParser, UnknownLineError, line, units
-from .settings import SETTINGS
 
 MAX_LINE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 64

@@ -17,12 +17,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mcap.writer import CompressionType, Writer
 
-from nurimc.backup import BackupError, load
 from nurimc.budgets import MIB, ReadBudget
 from nurimc.errors import InputError
+from nurimc.procedures.backup import BackupError, load
 from nurimc.recording.salvage import Salvage, read_records
-from nurimc.sigrok import read_capture
-from nurimc.trafficlog import read_traffic_log
+from nurimc.recording.sigrok import read_capture
+from nurimc.transport.trafficlog import read_traffic_log
 
 FAST = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 SMALL = ReadBudget(samples=1, edges=20_000, probes=16, chunk=1, decompressed=4, records=200)

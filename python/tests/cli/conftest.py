@@ -1,6 +1,6 @@
 """Every CLI test reads English unless it asks for Korean (test_korean.py): LANGUAGE, which
 gettext reads first, is set to English whatever the machine's locale. Restore journals
-(nurimc.journal) go to a folder of their own, never the user's state directory: a journal
+(nurimc.procedures.journal) go to a folder of their own, never the user's state directory: a journal
 left by a failing case must not reach another test or run."""
 
 from __future__ import annotations

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from nurimc.cli.i18n import tr
-from nurimc.journal import incomplete_message
-from nurimc.products import DESCRIPTIONS
+from nurimc.procedures.journal import incomplete_message
+from nurimc.procedures.products import DESCRIPTIONS
 
 from .inprocess import SIM, nurimc
 
@@ -25,7 +25,7 @@ def korean(monkeypatch: pytest.MonkeyPatch) -> None:
         monkeypatch.setenv(key, value)
 
 
-# Lines as the library writes them (nurimc.outage, transport/reconnect.py, discovery, settings, motor)
+# Lines as the library writes them (nurimc.transport.outage, transport/reconnect.py, discovery, settings, motor)
 LINES = {
     "port /dev/ttyUSB0 lost ([Errno 5] Input/output error); reopening it in the background": "다시 여는 중",
     "port /dev/ttyUSB0 is back after 3.1 s; sent first: stop 001": "3.1 s 만에 돌아왔습니다",

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from nurimc.settings import SETTINGS
+from nurimc.procedures.settings import SETTINGS
 
 from .inprocess import assert_clean, nurimc
 

@@ -21,11 +21,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nurimc import backup
 from nurimc.cli.app import app, main_options
+from nurimc.procedures import backup
+from nurimc.procedures.settings import SETTINGS
 from nurimc.protocol import BAUD_RATES, SPECS
 from nurimc.protocol.host import LIMITS
-from nurimc.settings import SETTINGS
 
 from .inprocess import assert_clean, nurimc
 

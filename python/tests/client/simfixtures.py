@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from nurimc import Bus
-from nurimc.client.clock import REAL_CLOCK, Clock, RealClock, VirtualClock
+from nurimc.core.clock import REAL_CLOCK, Clock, RealClock, VirtualClock
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.transport import SerialTransport
 

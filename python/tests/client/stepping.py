@@ -10,19 +10,7 @@ from __future__ import annotations
 
 from typing import Any, Generic, TypeVar
 
-from nurimc.client.actions import (
-    Action,
-    Discard,
-    Note,
-    Now,
-    Procedure,
-    Receive,
-    Send,
-    Sent,
-    SetHostBaud,
-    Wait,
-    WaitUntil,
-)
+from nurimc.core.actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
 
 T = TypeVar("T")
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 
 from nurimc import AsyncBus
-from nurimc.group import read_states
+from nurimc.procedures.group import read_states
 from nurimc.transport import SerialTransport
 
 from .simfixtures import virtual_sim

@@ -7,7 +7,7 @@ import asyncio
 import pytest
 
 from nurimc import AsyncBus, Bus, CorruptedAnswer, NoAnswer, UnexpectedAnswer
-from nurimc.client.timing import Timing
+from nurimc.core.timing import Timing
 from nurimc.protocol import PositionFeedback, RequestPosition, SetControl, decode
 
 from .fakes import ScriptedTransport

@@ -18,8 +18,8 @@ from collections.abc import Iterator
 import pytest
 
 from nurimc import Bus
-from nurimc.discovery import FixedLink, Found, Progress, RateSkipped, discover
 from nurimc.errors import FixedRate
+from nurimc.procedures.discovery import FixedLink, Found, Progress, RateSkipped, discover
 from nurimc.protocol import RequestFirmware
 from nurimc.sim import SimBus
 from nurimc.sim.faultproxy import FaultProxy

@@ -15,13 +15,13 @@ from collections.abc import Callable
 import pytest
 
 from nurimc import AsyncBus, Bus, NurimcError, PortError
-from nurimc.client.actions import Procedure, Send, Wait
-from nurimc.client.aio import drive_async
-from nurimc.client.clock import REAL_CLOCK, Clock, VirtualClock
-from nurimc.client.sync import drive
-from nurimc.config import change_baud
-from nurimc.discovery import Found, discover
+from nurimc.core.actions import Procedure, Send, Wait
+from nurimc.core.clock import REAL_CLOCK, Clock, VirtualClock
+from nurimc.drivers.aio import drive_async
+from nurimc.drivers.sync import drive
 from nurimc.errors import CallTimeout
+from nurimc.procedures.config import change_baud
+from nurimc.procedures.discovery import Found, discover
 from nurimc.protocol import BROADCAST_ID, Firmware, Ping, RequestFirmware, RequestPing, SetBaud, baud_index, decode
 
 from .fakes import ScriptedTransport

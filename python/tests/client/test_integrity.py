@@ -11,7 +11,7 @@ from collections.abc import Iterator
 import pytest
 
 from nurimc import Bus, ControllerBusy, Group, NoAnswer, NurimcError
-from nurimc.motor import MotorState
+from nurimc.procedures.motor import MotorState
 from nurimc.protocol import SetControl
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.sim.controller import SimController

@@ -21,8 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from nurimc import Group, NurimcError
-from nurimc.group import stagger_slot
-from nurimc.motor import MotorState
+from nurimc.procedures.group import stagger_slot
+from nurimc.procedures.motor import MotorState
 from nurimc.protocol import PositionFeedback, decode
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.sim.controller import Reply, SimController

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from nurimc import Bus, InputError
-from nurimc.discovery import discover
-from nurimc.products import detect_line
+from nurimc.procedures.discovery import discover
+from nurimc.procedures.products import detect_line
 from nurimc.protocol import WrongLineError, line
 from nurimc.sim import SimBus
 from nurimc.transport import SerialTransport
@@ -147,7 +147,7 @@ def test_scan_and_status_from_the_command_line() -> None:
 
 
 def test_id_changes_and_resets_go_out_in_the_motors_line() -> None:
-    from nurimc import config as cfg
+    from nurimc.procedures import config as cfg
 
     sim, bus = lines_bus({7: (9600, "rsa"), 9: (9600, "sm")}, baud=9600)
     bus.run(discover(bus.core, rates=[9600]))  # 7: rsa, 9: sm (the agreed table)

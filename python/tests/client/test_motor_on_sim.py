@@ -10,12 +10,12 @@ from collections.abc import Iterator
 import pytest
 
 from nurimc import ConfirmationRequired, CorruptedAnswer, Group, IdInUse, NoAnswer, SettingNotApplied
-from nurimc import config as cfg
-from nurimc.client.log import replay
-from nurimc.discovery import Progress, discover
+from nurimc.procedures import config as cfg
+from nurimc.procedures.discovery import Progress, discover
+from nurimc.procedures.settings import SETTINGS
 from nurimc.protocol import BAUD_RATES, FieldRangeError, PositionFeedback, RequestPosition
-from nurimc.settings import SETTINGS
 from nurimc.sim import FaultConfig
+from nurimc.transport.trafficlog import replay
 
 from .simfixtures import sim_bus, wait_until
 
@@ -158,7 +158,7 @@ def test_controllers_sharing_a_rate_are_found_at_the_pace_of_the_wire() -> None:
     assert len(sent) > 255  # the walk went out on the wire ...
     modes = {mode for data in sent for mode in frame_modes(data)}
     # ... pings and firmware requests, and per controller found its product line's question (AB
-    # answered: MC; nurimc.products): requests only, never a command (no write)
+    # answered: MC; nurimc.procedures.products): requests only, never a command (no write)
     assert {0xA0, 0xCD} <= modes <= {0xA0, 0xCD, 0xAB}
     bus.close()
     sim.close()

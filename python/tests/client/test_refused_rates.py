@@ -12,10 +12,10 @@ from typing import Any
 import pytest
 
 from nurimc import Bus
-from nurimc.client.clock import VirtualClock
-from nurimc.config import change_baud
-from nurimc.discovery import Found, RateSkipped, discover
+from nurimc.core.clock import VirtualClock
 from nurimc.errors import PortError, RateRefused
+from nurimc.procedures.config import change_baud
+from nurimc.procedures.discovery import Found, RateSkipped, discover
 from nurimc.sim import SimBus
 from nurimc.sim.port import SimSerial
 from nurimc.transport import SerialTransport

@@ -15,11 +15,11 @@ from typing import Any
 
 import pytest
 
-from nurimc.client.actions import Discard, Note, Now, Procedure, Receive, Send, Sent, Wait, WaitUntil
-from nurimc.client.core import BusCore
-from nurimc.client.timing import Timing
-from nurimc.group import read_states_broadcast
-from nurimc.motor import MotorProcedures, MotorState
+from nurimc.core.actions import Discard, Note, Now, Procedure, Receive, Send, Sent, Wait, WaitUntil
+from nurimc.core.buscore import BusCore
+from nurimc.core.timing import Timing
+from nurimc.procedures.group import read_states_broadcast
+from nurimc.procedures.motor import MotorProcedures, MotorState
 from nurimc.protocol import Message, StreamParser, answer_class, make, make_request, message_class
 
 from ..conftest import ROOT

@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import pytest
 
-from nurimc.client.actions import Receive, Send, SetHostBaud, WaitUntil
-from nurimc.client.core import FENCES, BusCore
-from nurimc.client.timing import MAX_RESPONSE_TIME, Timing
-from nurimc.config import change_baud, change_id
-from nurimc.discovery import Found, Progress, RateSkipped, discover
+from nurimc.core.actions import Receive, Send, SetHostBaud, WaitUntil
+from nurimc.core.buscore import FENCES, BusCore
+from nurimc.core.timing import MAX_RESPONSE_TIME, Timing
 from nurimc.errors import CallTimeout, ControllerBusy, IdInUse, NoAnswer, RateRefused, SettingNotApplied
-from nurimc.group import read_states_broadcast
-from nurimc.motor import MotorProcedures, MotorState
+from nurimc.procedures.config import change_baud, change_id
+from nurimc.procedures.discovery import Found, Progress, RateSkipped, discover
+from nurimc.procedures.group import read_states_broadcast
+from nurimc.procedures.motor import MotorProcedures, MotorState
 from nurimc.protocol import (
     BROADCAST_ID,
     Firmware,
@@ -254,7 +254,7 @@ def rate_checked(s: Stepper[int]) -> None:
 
 
 def target_checked(s: Stepper[int], rate: int = 115200) -> None:
-    """Then that no controller at the new rate has the ID already (nurimc.collisions): there, one
+    """Then that no controller at the new rate has the ID already (nurimc.procedures.collisions): there, one
     ping, silence, and back."""
     assert s.baud() == rate
     assert s.sent() == RequestPing(1).encode()

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nurimc.multiturn import TurnTracker
+from nurimc.procedures.multiturn import TurnTracker
+from nurimc.procedures.settings import setting
 from nurimc.protocol import FieldRangeError, units
-from nurimc.settings import setting
 
 
 def test_rounding_is_decimal_and_half_away_from_zero() -> None:
@@ -92,7 +92,7 @@ def test_tracker_signed_speed_decides_the_direction() -> None:
 
 
 def test_travel_range_bounds_what_a_shaft_can_do() -> None:
-    from nurimc.multiturn import travel_range
+    from nurimc.procedures.multiturn import travel_range
 
     assert travel_range(100.0, 100.0, 0.1, 1000.0, 10_000.0) == pytest.approx((7.5, 12.5))
     assert travel_range(0.0, 1000.0, 0.1, 1000.0, 10_000.0) is None  # needs 10,000 deg/s^2

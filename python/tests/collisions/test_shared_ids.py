@@ -10,9 +10,9 @@ from typing import Any
 
 import pytest
 
-from nurimc import config
-from nurimc.collisions import IdShared, who_answers
 from nurimc.errors import IdInUse
+from nurimc.procedures import config
+from nurimc.procedures.collisions import IdShared, who_answers
 
 from ..cli.inprocess import nurimc
 

@@ -6,7 +6,7 @@ from typing import Any
 
 import pytest
 
-from nurimc.stepresponse import analyse
+from nurimc.procedures.stepresponse import analyse
 
 
 def test_rise_time_and_overshoot_of_an_upward_step() -> None:

@@ -9,9 +9,9 @@ import time
 import pytest
 
 from nurimc import Bus
-from nurimc.client.aio import AsyncBus
+from nurimc.drivers.aio import AsyncBus
 from nurimc.errors import NotArrived
-from nurimc.motor import SpeedZero
+from nurimc.procedures.motor import SpeedZero
 
 
 def url(speed_zero: str) -> str:

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+from nurimc.procedures.settings import SETTINGS
 from nurimc.protocol import SPECS
 from nurimc.protocol._settings import SETTINGS as GENERATED
-from nurimc.settings import SETTINGS
 
 
 def test_every_library_setting_is_in_the_spec_map_with_the_same_messages() -> None:

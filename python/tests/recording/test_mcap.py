@@ -13,8 +13,8 @@ from typing import Any
 from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
-from nurimc.client.sync import Bus
-from nurimc.group import read_states
+from nurimc.drivers.sync import Bus
+from nurimc.procedures.group import read_states
 from nurimc.protocol import BROADCAST_ID, RequestPing, StreamParser, build_frame
 from nurimc.recording.mcap_file import FRAMES_TOPIC, McapRecorder
 from nurimc.ros2 import msgs

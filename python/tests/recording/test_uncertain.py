@@ -13,7 +13,7 @@ mcap = pytest.importorskip("mcap")
 from mcap.reader import make_reader  # noqa: E402
 
 from nurimc.cli.record_cmd import DIAGNOSTICS_TOPIC, note_uncertain  # noqa: E402
-from nurimc.motor import MotorState  # noqa: E402
+from nurimc.procedures.motor import MotorState  # noqa: E402
 from nurimc.recording.mcap_file import McapRecorder  # noqa: E402
 from nurimc.ros2 import msgs  # noqa: E402
 from nurimc.ros2.bridge import Bridge  # noqa: E402

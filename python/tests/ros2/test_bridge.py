@@ -9,7 +9,7 @@ from typing import Any, cast
 import pytest
 
 from nurimc.errors import NoAnswer
-from nurimc.motor import MotorState
+from nurimc.procedures.motor import MotorState
 from nurimc.ros2 import convert, msgs
 from nurimc.ros2.bridge import MAX_RPM, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
 from nurimc.ros2.dds import domain_id

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from nurimc.motor import Motor, MotorState
+from nurimc.procedures.motor import Motor, MotorState
 from nurimc.ros2.node import BridgeNode
 from nurimc.service.backoff import Backoff
 

@@ -9,7 +9,7 @@ import pytest
 
 from nurimc.dashboard import commands as c
 from nurimc.dashboard.worker import BusWorker
-from nurimc.discovery import Found
+from nurimc.procedures.discovery import Found
 
 from ..client.simfixtures import sim_bus
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from nurimc.client.sync import Bus
+from nurimc.drivers.sync import Bus
 from nurimc.service import COMMAND, READ, BusService, Cancelled, Sample
 from nurimc.service.core import BACKOFF_MAX
 from nurimc.sim import SimBus

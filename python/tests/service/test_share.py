@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from nurimc.client.clock import REAL_CLOCK
+from nurimc.core.clock import REAL_CLOCK
 from nurimc.service import BusService
 from nurimc.service.share import AttachedBus, HolderGone, ShareError, ShareServer, connect, socket_path
 from nurimc.sim import SimBus
@@ -188,7 +188,7 @@ def test_in_process_buses_are_never_shared() -> None:
 
 
 def test_library_users_attach_with_open_shared(holder: tuple[SimBus, BusService, ShareServer]) -> None:
-    from nurimc.client.sync import Bus
+    from nurimc.drivers.sync import Bus
     from nurimc.service.share import open_shared
 
     shared = open_shared(PORT, RATE, program="my-script")

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from nurimc import backup
+from nurimc.procedures import backup
 
 VECTORS = Path(__file__).resolve().parents[3] / "spec" / "vectors" / "backup-files.json"
 CASES: list[dict[str, Any]] = json.loads(VECTORS.read_text(encoding="utf-8"))["cases"]

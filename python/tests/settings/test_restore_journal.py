@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from nurimc.journal import RestoreJournal
+from nurimc.procedures.journal import RestoreJournal
 from nurimc.sim import SimBus
 
 NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from nurimc.journal import RestoreJournal
+from nurimc.procedures.journal import RestoreJournal
 from nurimc.sim import SimBus
 
 NURIMC = shutil.which("nurimc", path=str(Path(sys.executable).parent)) or "nurimc"
@@ -76,8 +76,8 @@ def test_force_line_writes_by_name_after_a_summary(buses: tuple[SimBus, str, Sim
 def test_values_outside_the_target_line_are_refused_before_any_write(
     buses: tuple[SimBus, str, SimBus, str], tmp_path: Path
 ) -> None:
-    from nurimc import config
-    from nurimc.client.sync import Bus
+    from nurimc.drivers.sync import Bus
+    from nurimc.procedures import config
 
     _, _, _mc, mc_port = buses
     with Bus.open(mc_port, 9600) as bus:

@@ -7,8 +7,9 @@ from __future__ import annotations
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nurimc import NurimcError, config
-from nurimc.settings import SETTINGS
+from nurimc import NurimcError
+from nurimc.procedures import config
+from nurimc.procedures.settings import SETTINGS
 from nurimc.sim import FaultConfig, SimBus
 from nurimc.sim.faults import FaultInjector
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from nurimc.client.clock import VirtualClock
+from nurimc.core.clock import VirtualClock
 from nurimc.sim import SimBus
 
 TURNAROUND = 0.005  # s the fake clock moves after each write: time for an answer to arrive

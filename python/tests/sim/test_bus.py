@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from nurimc.client.clock import VirtualClock
+from nurimc.core.clock import VirtualClock
 from nurimc.sim import SimBus
 
 from .conftest import Pty

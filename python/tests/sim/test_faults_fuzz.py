@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nurimc.client.clock import VirtualClock
+from nurimc.core.clock import VirtualClock
 from nurimc.sim import FaultConfig, SimBus
 
 from .wirehelp import frame, parse_answer

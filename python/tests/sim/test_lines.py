@@ -8,7 +8,7 @@ import logging
 
 import pytest
 
-from nurimc.client.clock import VirtualClock
+from nurimc.core.clock import VirtualClock
 from nurimc.sim import SimBus
 
 from .fakebus import FakePort, fake_bus

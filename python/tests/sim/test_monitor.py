@@ -9,8 +9,8 @@ import pytest
 import serial
 
 from nurimc.protocol import make
+from nurimc.protocol.sniff import SniffedFrame, Sniffer
 from nurimc.sim import SimBus
-from nurimc.sniff import SniffedFrame, Sniffer
 
 from .fakebus import fake_bus
 from .wirehelp import frame

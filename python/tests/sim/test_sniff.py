@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nurimc.protocol import StreamParser, make
-from nurimc.sniff import ExplainingParser, Rejected, SniffedFrame, Sniffer
+from nurimc.protocol.sniff import ExplainingParser, Rejected, SniffedFrame, Sniffer
 
 PING = make("request_ping", 3).encode()
 MOVE = make("position_speed", 1, direction=0, position=9000, speed=100).encode()

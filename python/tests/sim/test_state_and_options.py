@@ -14,11 +14,11 @@ import pytest
 import serial
 
 import nurimc.sim  # noqa: F401 - registers the sim:// handler
+from nurimc.protocol.sniff import SniffedFrame, Sniffer
 from nurimc.sim import SimBus
 from nurimc.sim.options import OptionError, parse_ids
 from nurimc.sim.profile import load_profiles
 from nurimc.sim.store import StateError
-from nurimc.sniff import SniffedFrame, Sniffer
 
 from .wirehelp import ask, command, frame, position, u16
 

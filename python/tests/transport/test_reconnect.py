@@ -11,7 +11,7 @@ import pytest
 import serial
 
 from nurimc import Bus
-from nurimc.client.aio import AsyncBus
+from nurimc.drivers.aio import AsyncBus
 from nurimc.errors import PortError, PortLost
 from nurimc.protocol import BROADCAST_ID, SetControl
 from nurimc.transport.reconnect import PortEvent, ReconnectingTransport, by_id_names, is_loss

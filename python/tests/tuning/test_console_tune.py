@@ -10,7 +10,7 @@ import pytest
 from nurimc import Bus
 from nurimc.dashboard import commands as c
 from nurimc.dashboard import tune_panel
-from nurimc.motor import Motor, MotorState
+from nurimc.procedures.motor import Motor, MotorState
 from nurimc.sim import SimBus
 from nurimc.sim.plant import Plant
 

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from nurimc import Bus
-from nurimc.journal import RestoreJournal
+from nurimc.procedures.journal import RestoreJournal
 from nurimc.sim import SimBus
 from nurimc.sim.plant import Plant
 
@@ -74,7 +74,7 @@ def test_a_lost_port_leaves_the_journal_and_restore_writes_the_starting_gains_ba
     plant_bus: SimBus, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from nurimc.errors import PortLost
-    from nurimc.tuning import Tuner
+    from nurimc.procedures.tuning import Tuner
 
     real = Tuner._position_trial
     calls: list[int] = []
@@ -103,7 +103,7 @@ def test_a_lost_port_leaves_the_journal_and_restore_writes_the_starting_gains_ba
 def test_ctrl_c_mid_tune_restores_the_starting_gains_and_says_so(
     plant_bus: SimBus, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from nurimc.tuning import Tuner
+    from nurimc.procedures.tuning import Tuner
 
     real = Tuner._position_trial
 

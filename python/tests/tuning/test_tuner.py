@@ -1,4 +1,4 @@
-"""The tuner (nurimc.tuning) against simulated plants it was not written for, on virtual time."""
+"""The tuner (nurimc.procedures.tuning) against simulated plants it was not written for, on virtual time."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import pytest
 
 from nurimc import Bus
 from nurimc.errors import PortLost
+from nurimc.procedures.stepresponse import ResponseFigures, response_figures
+from nurimc.procedures.tuning import NONE_MEASURED, TrialDone, TrialSample, TrialStarted, TuneRefused, TuneStopped
 from nurimc.sim import SimBus
 from nurimc.sim.plant import Plant
-from nurimc.stepresponse import ResponseFigures, response_figures
-from nurimc.tuning import NONE_MEASURED, TrialDone, TrialSample, TrialStarted, TuneRefused, TuneStopped
 
 from ..client.simfixtures import sim_bus
 

@@ -1,6 +1,6 @@
 /**
  * How long an answer may take: derived from the wire, never guessed (the Python
- * library's rule, nurimc.client.timing, with the same defaults).
+ * library's rule, nurimc.core.timing, with the same defaults).
  *
  * deadline (from the end of our write) = request wire time + the controller's response
  * time + answer wire time + adapter latency (both ways) + a small margin. Bytes are 10

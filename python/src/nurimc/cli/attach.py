@@ -7,9 +7,9 @@ import threading
 import time
 from typing import Any
 
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from ..errors import NurimcError
-from ..motor import MotorState
+from ..procedures.motor import MotorState
 from ..service.share import AttachedBus, HolderGone, connect, shareable
 from .i18n import tr
 

@@ -30,8 +30,8 @@ from ..protocol import BAUD_RATES, StreamParser
 from .i18n import tr
 
 if TYPE_CHECKING:  # the bus client (pyserial and all) loads when a command opens a bus, not for --help
-    from ..client.sync import Bus
-    from ..motor import Motor
+    from ..drivers.sync import Bus
+    from ..procedures.motor import Motor
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
 EXIT_TERMINATED = 143  # SIGTERM during a one-shot command (128 + 15, the shell's convention)
@@ -110,7 +110,7 @@ def note(message: str) -> None:
 
 
 def say_line(text: str) -> None:
-    """A long-running tool's line about its port (lost, back, not stopped: nurimc.outage), in the
+    """A long-running tool's line about its port (lost, back, not stopped: nurimc.transport.outage), in the
     language in use."""
     print(tr(text), file=sys.stderr, flush=True)
 
@@ -240,7 +240,7 @@ def open_bus(o: Options, reconnect: bool = False, attach: bool = True) -> Bus:
 def _open_waiting(port: str, o: Options, **options: Any) -> Bus:
     """Bus.open, retried for up to --port-wait seconds while the port cannot be opened (a
     simulator's link or a USB adapter about to appear); then the last error, saying it waited."""
-    from ..client.sync import Bus
+    from ..drivers.sync import Bus
 
     deadline = time.monotonic() + o.port_wait
     while True:
@@ -256,10 +256,10 @@ def _open_waiting(port: str, o: Options, **options: Any) -> Bus:
 
 def motor_for(bus: Bus, o: Options, device_id: int, *, acts: bool = True) -> Motor:
     """The motor handle of a command in its product line: --product if given, else the line the
-    controller answers as (nurimc.products). A command that acts is refused when the line cannot
+    controller answers as (nurimc.procedures.products). A command that acts is refused when the line cannot
     be told (the same bytes mean other commands in other lines); a read goes ahead as MC."""
-    from ..collisions import shared_message, who_answers
-    from ..products import detect_line
+    from ..procedures.collisions import shared_message, who_answers
+    from ..procedures.products import detect_line
 
     if o.product_given:
         return bus.motor(device_id, o.product)

@@ -8,8 +8,8 @@ from typing import Any
 
 import typer
 
-from ..client.sync import Bus
-from ..outage import OutageGuard
+from ..drivers.sync import Bus
+from ..transport.outage import OutageGuard
 from .common import EXIT_USAGE, fail, open_bus, options, out, say_line
 
 

@@ -15,9 +15,9 @@ from rich.live import Live
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..client.sync import Bus
-from ..discovery import Progress as ScanProgress
-from ..discovery import discover
+from ..drivers.sync import Bus
+from ..procedures.discovery import Progress as ScanProgress
+from ..procedures.discovery import discover
 from ..sim import SimBus
 from ..transport import SerialTransport
 from .common import EXIT_DEVICE, Number, fail, out, show_table, table

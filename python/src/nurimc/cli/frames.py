@@ -12,7 +12,6 @@ import typer
 from ..budgets import READ_LIMITS_HELP
 from ..errors import InputError, PortLost
 from ..inputs import UNIT_SHOWN, field_value, integer, with_unit
-from ..outage import OutageGuard
 from ..protocol import (
     ALL_LINES,
     SPECS,
@@ -26,7 +25,8 @@ from ..protocol import (
     line,
     wire_bytes,
 )
-from ..trafficlog import read_traffic_log
+from ..transport.outage import OutageGuard
+from ..transport.trafficlog import read_traffic_log
 from .common import EXIT_USAGE, STOP, Number, Options, emit, fail, note, open_bus, options, say_line, table
 from .common import note as tell
 
@@ -223,7 +223,7 @@ def replay(
     Example: nurimc replay traffic.log
     """
     from ..budgets import default_budget
-    from ..sigrok import read_capture
+    from ..recording.sigrok import read_capture
 
     o = options(ctx)
     try:

@@ -15,17 +15,17 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
-from ..client.sync import Bus
-from ..discovery import FixedLink, RateSkipped, discover
-from ..discovery import Progress as ScanProgress
+from ..drivers.sync import Bus
 from ..errors import NurimcError
 from ..inputs import UNIT_SHOWN, with_unit
-from ..journal import RestoreJournal, incomplete_message
-from ..motor import MotorState
-from ..outage import OutageGuard
-from ..products import DESCRIPTIONS
+from ..procedures.discovery import FixedLink, RateSkipped, discover
+from ..procedures.discovery import Progress as ScanProgress
+from ..procedures.journal import RestoreJournal, incomplete_message
+from ..procedures.motor import MotorState
+from ..procedures.products import DESCRIPTIONS
+from ..procedures.settings import SETTINGS
 from ..protocol import BAUD_RATES
-from ..settings import SETTINGS
+from ..transport.outage import OutageGuard
 from .common import (
     EXIT_INTERRUPTED,
     Number,

@@ -8,7 +8,7 @@ import typer
 
 from ..errors import InputError, NotArrived, NurimcError
 from ..inputs import number
-from ..motor import RUN_RAMP
+from ..procedures.motor import RUN_RAMP
 from ..protocol.host import LIMITS
 from .common import (
     EXIT_DEVICE,

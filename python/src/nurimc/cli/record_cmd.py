@@ -11,7 +11,7 @@ import typer
 
 from ..budgets import READ_LIMITS_HELP
 from ..errors import NurimcError, PortLost
-from ..outage import OutageGuard
+from ..transport.outage import OutageGuard
 from .common import EXIT_DEVICE, EXIT_USAGE, Number, fail, options, out, say_line
 from .i18n import tr
 from .ros2_cmd import RATE, SECONDS
@@ -25,7 +25,7 @@ DIAGNOSTICS_TOPIC = "/diagnostics"
 
 
 def note_uncertain(recorder: Any, bridge: Any, uncertain: set[int], stamp_ns: int, port: str) -> bool:
-    """When the joints whose continuous position may be off by whole turns change (nurimc.multiturn),
+    """When the joints whose continuous position may be off by whole turns change (nurimc.procedures.multiturn),
     write the bridge's diagnostics (each joint's position_uncertain) to the recording; True if written."""
     unsure = {j.id for j in bridge.joints if j.state is not None and j.state.position_uncertain}
     if unsure == uncertain:
@@ -80,12 +80,12 @@ def record(
 
     need_extra()
     if source is not None:  # docs/sigrok.md: a capture from a real robot, into Foxglove
-        from ..sigrok import convert_to_mcap
+        from ..recording.sigrok import convert_to_mcap
 
         counts = convert_to_mcap(source, mcap_path)
         out.print(tr(f"wrote {mcap_path}: {counts} frames from {source}"), soft_wrap=True, markup=False)
         return
-    from ..group import read_states
+    from ..procedures.group import read_states
     from ..recording.mcap_file import FRAMES_TOPIC, McapRecorder
     from ..ros2.bridge import Bridge
     from ..ros2.names import NameError_, topic

@@ -11,7 +11,7 @@ from typing import Any
 
 import typer
 
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from ..errors import NurimcError
 from .common import EXIT_DEVICE, FramePrinter, Number, Options, err, fail, options, out, parse_ids
 from .i18n import tr
@@ -82,7 +82,7 @@ def motor_ids(o: Options, ids_text: str | None, bus: Bus) -> list[int]:
         if 255 in ids or min(ids) < 0:
             fail("--ids: IDs are 0..254")
         return ids
-    from ..discovery import discover
+    from ..procedures.discovery import discover
 
     err.print(tr(f"no --ids: looking for controllers at {bus.baudrate} bps..."))
     found = bus.run(discover(bus.core, [bus.baudrate]))

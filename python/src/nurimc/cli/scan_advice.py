@@ -7,7 +7,7 @@ from typing import Any
 
 import typer
 
-from ..collisions import shared_message
+from ..procedures.collisions import shared_message
 from .common import EXIT_DEVICE, err
 from .i18n import tr
 

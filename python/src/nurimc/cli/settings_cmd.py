@@ -12,17 +12,17 @@ from typing import TypeVar
 import typer
 from rich.progress import Progress, TextColumn, TimeElapsedColumn
 
-from .. import backup as backup_file
-from .. import config
-from ..client.sync import Bus
-from ..discovery import Progress as ScanProgress
-from ..discovery import discover
+from ..drivers.sync import Bus
 from ..errors import InputError
 from ..inputs import UNIT_SHOWN, Rounded, field_value, integer, with_unit
-from ..journal import RestoreJournal, incomplete_message
-from ..motor import Motor
-from ..products import UNKNOWN, detect_line
-from ..settings import SETTINGS, Setting, setting
+from ..procedures import backup as backup_file
+from ..procedures import config
+from ..procedures.discovery import Progress as ScanProgress
+from ..procedures.discovery import discover
+from ..procedures.journal import RestoreJournal, incomplete_message
+from ..procedures.motor import Motor
+from ..procedures.products import UNKNOWN, detect_line
+from ..procedures.settings import SETTINGS, Setting, setting
 from .common import (
     EXIT_DEVICE,
     EXIT_OK,

@@ -1,4 +1,4 @@
-"""tune: find a loop's gains on the motor itself (nurimc.tuning, docs/tuning.md)."""
+"""tune: find a loop's gains on the motor itself (nurimc.procedures.tuning, docs/tuning.md)."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ from typing import Any
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from .. import config
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from ..errors import NurimcError
-from ..journal import RestoreJournal, incomplete_message, state_dir
-from ..tuning import (
+from ..procedures import config
+from ..procedures.journal import RestoreJournal, incomplete_message, state_dir
+from ..procedures.tuning import (
     DEFAULT_MAX_CURRENT,
     DEFAULT_MAX_RPM,
     DEFAULT_TRAVEL,

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import typer
 
-from ..client.actions import Now, Procedure, Wait
-from ..client.core import BusCore
-from ..config import _in_line
-from ..motor import MotorProcedures, MotorState
+from ..core.actions import Now, Procedure, Wait
+from ..core.buscore import BusCore
+from ..procedures.config import _in_line
+from ..procedures.motor import MotorProcedures, MotorState
 from ..protocol import ResetPosition
 from .common import EXIT_DEVICE, emit, fail, motor_for, one_id, open_bus, options
 

@@ -12,11 +12,11 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ..client.core import BusCore
-from ..config import BACKUP_FORMAT
-from ..motor import MotorProcedures
+from ..core.buscore import BusCore
+from ..procedures.config import BACKUP_FORMAT
+from ..procedures.motor import MotorProcedures
+from ..procedures.settings import SETTINGS, setting
 from ..protocol import BAUD_RATES, FieldRangeError
-from ..settings import SETTINGS, setting
 
 MAX_STEP_SECONDS = 10.0
 LARGEST = 1e9  # no field of any command comes near this; larger numbers are refused before any arithmetic
@@ -387,7 +387,7 @@ class TuneCancel:
 
 def _tune(m: dict[str, Any]) -> Tune:
     """The `tune` op, checked as the library checks it (nothing reaches the bus when refused)."""
-    from ..tuning import (
+    from ..procedures.tuning import (
         DEFAULT_MAX_CURRENT,
         DEFAULT_MAX_RPM,
         DEFAULT_TRAVEL,

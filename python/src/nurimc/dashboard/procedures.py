@@ -1,5 +1,5 @@
 """The console's multi-step bus actions as procedures (sans-I/O, as the core's): the emergency
-stop (the one of nurimc.service.stop), set-zero and the step run. They yield actions (Send,
+stop (the one of nurimc.procedures.stop), set-zero and the step run. They yield actions (Send,
 Receive, Wait, Now, Note ...) and the Bus's driver carries them out, so the console's worker
 has no sleep loop and no clock of its own; busy windows are the BusCore's. Progress goes out as
 Note events (a reading for the plots), and the worker's note handler may throw in an
@@ -12,13 +12,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..client.actions import Note, Now, Procedure, Receive, Wait
-from ..client.core import BusCore
-from ..motor import MotorProcedures, MotorState
+from ..core.actions import Note, Now, Procedure, Receive, Wait
+from ..core.buscore import BusCore
+from ..procedures.motor import MotorProcedures, MotorState
+from ..procedures.settings import setting
+from ..procedures.stop import emergency_stop as the_stop
 from ..protocol import Request, ResetPosition
 from ..protocol.host import STOP_VERIFY
-from ..service.stop import emergency_stop as the_stop
-from ..settings import setting
 
 ZERO_WAIT = 0.5  # s the new zero may take to show in the readings
 ZERO_RECHECK = 0.02
@@ -35,7 +35,7 @@ class Reading:
 def emergency_stop(
     core: BusCore, motors: Mapping[int, tuple[MotorProcedures, int]], verify_seconds: float = STOP_VERIFY
 ) -> Procedure[dict[str, Any]]:
-    """The one emergency stop (nurimc.service.stop, docs/service.md), its result as the pages
+    """The one emergency stop (nurimc.procedures.stop, docs/service.md), its result as the pages
     show it: rates, each motor's control read back, and which motors it could not read back."""
     result = yield from the_stop(core, motors, verify_seconds)
     return {

@@ -22,7 +22,7 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from .. import __version__
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from . import commands as c
 from . import tune_panel
 from .busstats import FrameRate, bus_stats

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from ..sim import SimBus
 from ..transport import SerialTransport
 from .frames import FrameTap

@@ -1,7 +1,7 @@
 """The console's Auto-tune (issue 35): the `tune` and `tune_cancel` ops and the worker's handler.
 
 The page sends `{"op": "tune", "id", "loop", "goal", "travel", "max_rpm", "max_current",
-"trials", "max_overshoot"?, "max_settling"?}`; the bus worker runs nurimc.tuning's procedure
+"trials", "max_overshoot"?, "max_settling"?}`; the bus worker runs nurimc.procedures.tuning's procedure
 (the starting gains written back at the end: the page applies the chosen gains with `set`, after
 the user clicks Apply) and publishes `{"type": "tune", ...}` events: each trial as it starts and
 ends (its samples, figures and score: a row in the step-response runs). `tune_cancel` is taken
@@ -15,7 +15,7 @@ import threading
 from typing import Any
 
 from ..errors import NurimcError
-from ..tuning import Envelope, TrialDone, TrialStarted, Tuner, TuneStopped, make_goal
+from ..procedures.tuning import Envelope, TrialDone, TrialStarted, Tuner, TuneStopped, make_goal
 from . import commands as c
 
 Tune = c.Tune

@@ -21,16 +21,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from .. import config
-from ..client.sync import Bus
-from ..discovery import Found, Progress, discover
+from ..drivers.sync import Bus
 from ..errors import ControllerBusy, NurimcError, PortError, PortLost
-from ..motor import Motor, MotorState
+from ..procedures import config
+from ..procedures.discovery import Found, Progress, discover
+from ..procedures.motor import Motor, MotorState
+from ..procedures.stepresponse import analyse
+from ..procedures.stop import Idle
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS, STOP_VERIFY
 from ..service.backoff import Backoff
-from ..service.stop import Idle
-from ..stepresponse import analyse
+from ..service.core import Interrupted
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
 from . import tune_panel
@@ -49,10 +50,6 @@ BUSY_MARGIN = 0.2  # s after a controller's busy window during which a failed re
 REOPEN_WAIT = 3.0  # s a reopen asked from the page waits for the port before answering
 
 __all__ = ["CANCELLED", "MAX_PENDING", "BusWorker", "Done", "KnownMotor"]
-
-
-class Interrupted(Exception):
-    """The emergency stop cut a long command short."""
 
 
 class StopPending(NurimcError):
@@ -317,7 +314,7 @@ class BusWorker:
         device_id = state.id
         self.reads += 1
         t = round(time.monotonic() - self.clock_origin, 4)
-        # the 7th column: 1 when the continuous position may be off by whole turns (nurimc.multiturn)
+        # the 7th column: 1 when the continuous position may be off by whole turns (nurimc.procedures.multiturn)
         row = [device_id, t, state.position, state.speed, state.current, state.device_position]
         row.append(1 if state.position_uncertain else 0)
         with self._samples_lock:
@@ -332,7 +329,7 @@ class BusWorker:
 
     def _handle(self, device_id: int) -> Motor:
         if device_id not in self._handles:
-            # the product line discovery found for the ID (nurimc.products) beats the default "mc"
+            # the product line discovery found for the ID (nurimc.procedures.products) beats the default "mc"
             found = self.bus.core.products.get(device_id) if self.product == "mc" else None
             self._handles[device_id] = self.bus.motor(device_id, found or self.product)
         return self._handles[device_id]

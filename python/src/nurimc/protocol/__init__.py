@@ -9,16 +9,7 @@ PositionSpeed(id=0, direction=0, position=18000, speed=1000)
 """
 
 from . import messages as _messages
-from ._tables import (
-    BAUD_RATES,
-    BROADCAST_ID,
-    DEVICE_DEFAULTS,
-    HEADER,
-    MAX_DEVICE_ID,
-    PRODUCTS,
-    PROTOCOL,
-    SPECS,
-)
+from ._tables import BAUD_RATES, BROADCAST_ID, DEVICE_DEFAULTS, HEADER, MAX_DEVICE_ID, PRODUCTS, PROTOCOL, SPECS
 from .codec import decode, encode, make, make_command, make_request, message_class, wire_bytes
 from .errors import (
     DecodeError,

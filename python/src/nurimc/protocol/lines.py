@@ -21,13 +21,7 @@ from typing import Any
 
 from ._lines import LINES, PRODUCT_LINES
 from .decoding import decode_with
-from .errors import (
-    MissingFieldError,
-    UnknownFieldError,
-    UnknownLineError,
-    UnknownMessageError,
-    WrongLineError,
-)
+from .errors import MissingFieldError, UnknownFieldError, UnknownLineError, UnknownMessageError, WrongLineError
 from .message import Answer, Command, Message, Request, field_getter
 from .messages import BY_MODE, MESSAGES
 from .schema import Kind, LineSpec, MessageSpec

@@ -24,7 +24,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from ..motor import POSITION_LIMIT, MotorState
+from ..procedures.motor import POSITION_LIMIT, MotorState
 from ..protocol.host import LIMITS
 from . import msgs
 from .convert import deg_to_rad, rad_s_to_rpm, rad_to_deg, rpm_to_rad_s
@@ -292,7 +292,7 @@ class Bridge:
                 level, message = msgs.DIAGNOSTIC_STALE, "not read yet"
             elif self.estop_latched:
                 level, message = msgs.DIAGNOSTIC_WARN, "released by estop (latched)"
-            elif joint.state.position_uncertain:  # nurimc.multiturn: whole turns may be missing
+            elif joint.state.position_uncertain:  # nurimc.procedures.multiturn: whole turns may be missing
                 level, message = msgs.DIAGNOSTIC_WARN, "position uncertain: readings too far apart for the speed"
             else:
                 level, message = msgs.DIAGNOSTIC_OK, joint.mode

@@ -29,7 +29,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..motor import POSITION_LIMIT
+from ..procedures.motor import POSITION_LIMIT
 from . import msgs
 from .bridge import MAX_RPM, MIN_RPM, RESEND_SAME, Action, Bridge, MoveTo, Refused, velocity_actions
 from .convert import rad_s_to_rpm, rad_to_deg

@@ -17,15 +17,15 @@ import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from ..errors import NurimcError, PortLost
-from ..group import read_states, read_states_broadcast, stagger
-from ..motor import Motor, MotorState
-from ..outage import OutageGuard
+from ..procedures.group import read_states, read_states_broadcast, stagger
+from ..procedures.motor import Motor, MotorState
+from ..procedures.stop import StopResult, emergency_stop
 from ..protocol import FieldRangeError
 from ..protocol.host import STOP_VERIFY
 from ..service.backoff import Backoff, read_state_once
-from ..service.stop import StopResult, emergency_stop
+from ..transport.outage import OutageGuard
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
 from .coalesce import CommandQueue
@@ -71,7 +71,7 @@ class BridgeNode:
         self.participant = participant
         self.namespace = namespace
         self.period = 1.0 / rate if rate else 0.0
-        # the product line discovery found for an ID (nurimc.products) beats the default "mc"
+        # the product line discovery found for an ID (nurimc.procedures.products) beats the default "mc"
         self.motors = {
             i: Motor(bus, i, (bus.core.products.get(i) if product == "mc" else None) or product) for i in bridge.ids
         }
@@ -298,7 +298,7 @@ class BridgeNode:
             self.release_all(action.ids)
 
     def release_all(self, ids: tuple[int, ...]) -> StopResult:
-        """The one emergency stop (nurimc.service.stop, docs/service.md): control off by broadcast,
+        """The one emergency stop (nurimc.procedures.stop, docs/service.md): control off by broadcast,
         then to each motor by ID, read back until each says off or spec/host.json's window runs out."""
         motors = {i: (self.motors[i].procedures, self.bus.baudrate) for i in ids}
         result = self.bus.run(emergency_stop(self.bus.core, motors))

@@ -1,5 +1,6 @@
 """The bus service: one bus, many programs (docs/service.md)."""
 
+from ..procedures.stop import StopResult, emergency_stop
 from .core import (
     COMMAND,
     ESTOP,
@@ -13,7 +14,6 @@ from .core import (
     ServiceClosed,
     Subscription,
 )
-from .stop import StopResult, emergency_stop
 
 __all__ = [
     "COMMAND",

@@ -8,7 +8,7 @@ from collections.abc import Generator
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..motor import MotorProcedures, MotorState
+from ..procedures.motor import MotorProcedures, MotorState
 
 SILENT_AFTER = 2  # failed reads in a row before a motor is "not answering" (one lost frame is not)
 BACKOFF_FIRST = 0.1  # s before the first retry of a motor that does not answer

@@ -8,7 +8,7 @@
   motor (a subscriber asking less often gets every n-th). A motor that stops answering is read
   less often (backoff, one attempt each time, up to BACKOFF_MAX) and reported ("no answer
   since T"); the other motors keep their rate; it is picked up again when it answers.
-- One emergency stop (service/stop.py): control off at every rate a motor was seen at, read
+- One emergency stop (procedures/stop.py): control off at every rate a motor was seen at, read
   back within the window of spec/host.json; polling goes on during and after it (multi-turn
   tracking keeps counting turns while the motors coast); the stop is latched for every motor
   until some program commands that motor again.
@@ -16,7 +16,7 @@
   stop asked meanwhile is latched and sent first on the return, and every known motor is read
   again before anything else.
 
-Time comes only from the clock (client/clock.py). Without a thread (`start()` not called) the
+Time comes only from the clock (core/clock.py). Without a thread (`start()` not called) the
 caller drives: `step()` does one unit of work, `run_for(s)` / `run_until(t)` let time pass
 doing what is due, and `run(...)` steps until its job is done; tests run it on a VirtualClock
 with the in-process simulator. With `start()`, one worker thread does the same.
@@ -35,18 +35,18 @@ from concurrent.futures import Future
 from dataclasses import dataclass, field, replace
 from typing import Any, TypeVar, cast
 
-from ..client.actions import Procedure
-from ..client.clock import Clock
-from ..client.sync import Bus
-from ..discovery import Found, discover
+from ..core.actions import Procedure
+from ..core.clock import Clock
+from ..drivers.sync import Bus
 from ..errors import NurimcError, PortLost
-from ..motor import Motor, MotorProcedures, MotorState
-from ..outage import OutageGuard
+from ..procedures.discovery import Found, discover
+from ..procedures.motor import Motor, MotorProcedures, MotorState
+from ..procedures.stop import Idle, StopResult, emergency_stop
 from ..protocol import BROADCAST_ID, SetControl
 from ..protocol.host import STOP_VERIFY
+from ..transport.outage import OutageGuard
 from ..transport.reconnect import reconnecting
 from .backoff import read_state_once
-from .stop import Idle, StopResult, emergency_stop
 
 T = TypeVar("T")
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from .core import BusService
 from .share import ShareError, ShareServer, shareable
 

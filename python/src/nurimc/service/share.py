@@ -44,10 +44,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
-from ..client.sync import Bus
+from ..drivers.sync import Bus
 from ..errors import NurimcError, PortError, PortLost
 from ..protocol import BROADCAST_ID, Command, SetControl, decode
+from ..version import __version__
 from .core import ESTOP, BusService, ClientInfo, Sample, Subscription
 
 PROTOCOL = 1
@@ -148,7 +148,7 @@ class _Lease:
         self.last_op = time.monotonic()
 
 
-class _Client:
+class _AttachedClient:
     def __init__(self, server: ShareServer, sock: socket.socket) -> None:
         self.server = server
         self.sock = sock
@@ -386,7 +386,7 @@ class ShareServer:
         self.lock_path = self.path.with_suffix(".lock")
         self._lock_fd: int | None = None
         self._sock: socket.socket | None = None
-        self._clients: set[_Client] = set()
+        self._clients: set[_AttachedClient] = set()
         self._mutex = threading.Lock()
         self._thread: threading.Thread | None = None
         self._closing = False
@@ -424,12 +424,12 @@ class ShareServer:
                 conn, _ = self._sock.accept()
             except OSError:
                 break
-            client = _Client(self, conn)
+            client = _AttachedClient(self, conn)
             with self._mutex:
                 self._clients.add(client)
             threading.Thread(target=client.serve, daemon=True, name="nurimc-share-client").start()
 
-    def _gone(self, client: _Client) -> None:
+    def _gone(self, client: _AttachedClient) -> None:
         with self._mutex:
             self._clients.discard(client)
         for sub in client.subs.values():

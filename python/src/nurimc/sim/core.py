@@ -18,9 +18,9 @@ import time
 from collections import defaultdict
 from collections.abc import Callable
 
-from ..client.clock import VirtualClock
+from ..core.clock import VirtualClock
 from ..protocol import BAUD_RATES, BROADCAST_ID, decode
-from ..sniff import ExplainingParser, SniffedFrame
+from ..protocol.sniff import ExplainingParser, SniffedFrame
 from .controller import EEPROM_TIME, Reply, SimController
 from .faults import FaultConfig, FaultInjector
 from .profile import SPEED_ZERO_CHOICES, SimProfile, default_profiles
@@ -73,9 +73,9 @@ class HostLink:
 
 class WireModel:
     """The simulator's wire model: simulated controllers on one RS485 bus, the bytes in flight,
-    collisions, rates and faults (the host library's protocol core is nurimc.client.core.BusCore).
+    collisions, rates and faults (the host library's protocol core is nurimc.core.buscore.BusCore).
 
-    `clock` returns seconds (default time.monotonic). A `nurimc.client.clock.VirtualClock`
+    `clock` returns seconds (default time.monotonic). A `nurimc.core.clock.VirtualClock`
     makes the bus run on virtual time: physics follows every move of that clock, and a read
     on an in-process port that finds nothing moves the clock to the next byte due (or to the
     read's end) instead of sleeping; give the same clock to the library's Bus.

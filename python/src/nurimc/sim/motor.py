@@ -23,7 +23,7 @@ COULOMB = 300.0
 
 @dataclass
 class ShaftState:
-    """The simulated motor shaft's physical state (not the library's nurimc.motor.MotorState reading)."""
+    """The simulated motor shaft's physical state (not the library's nurimc.procedures.motor.MotorState reading)."""
 
     angle: float = 0.0  # deg, output shaft, unwrapped
     speed: float = 0.0  # deg/s

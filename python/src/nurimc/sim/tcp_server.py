@@ -27,7 +27,7 @@ MAX_PENDING = 64 * 1024
 SEND_BUFFER = 64 * 1024
 
 
-class _Client:
+class _TcpClient:
     __slots__ = ("link", "peer", "pending")
 
     def __init__(self, link: HostLink, peer: str) -> None:
@@ -59,7 +59,7 @@ class TcpServer:
         self.listener = socket.create_server((host, port), backlog=128)
         self.listener.setblocking(False)
         self.address: tuple[str, int] = self.listener.getsockname()[:2]
-        self.clients: dict[socket.socket, _Client] = {}
+        self.clients: dict[socket.socket, _TcpClient] = {}
         self.refused = 0  # connections closed at the cap
         self.dropped = 0  # clients dropped for not reading
         self.errors = 0  # errors the loop logged and survived
@@ -147,7 +147,7 @@ class TcpServer:
             link = self.bus.open_link(self.baud, monitor=self.monitor)
             link.wake = self._wake
             where = f"{peer[0]}:{peer[1]}"
-            self.clients[sock] = _Client(link, where)
+            self.clients[sock] = _TcpClient(link, where)
             self._selector.register(sock, selectors.EVENT_READ, "client")
             log.info("tcp client %s connected", where)
 

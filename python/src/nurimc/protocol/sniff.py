@@ -13,12 +13,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .protocol import HEADER, Message
-from .protocol._tables import MAX_SIZE
-from .protocol.codec import decode_valid
-from .protocol.frame import CHECKSUM_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
-from .protocol.lines import line as line_named
-from .protocol.message import Answer
+from . import HEADER, Message
+from ._tables import MAX_SIZE
+from .codec import decode_valid
+from .frame import CHECKSUM_OFFSET, ID_OFFSET, MODE_OFFSET, SIZE_OFFSET
+from .lines import line as line_named
+from .message import Answer
 
 _FF = HEADER[0]
 

@@ -6,15 +6,15 @@ import threading
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from ..motor import Motor
+from ..core.actions import Procedure
+from ..core.clock import REAL_CLOCK, Clock
+from ..core.timing import Timing
+from ..procedures.motor import Motor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Procedure
-from .clock import REAL_CLOCK, Clock
-from .log import FrameRecorder
+from ..transport.trafficlog import FrameRecorder
 from .options import Listeners, make_core
 from .perform import Performer, run_in_place
-from .timing import Timing
 
 T = TypeVar("T")
 
@@ -126,7 +126,7 @@ class Bus:
 
     def motor(self, device_id: int, product: str | None = None) -> Motor:
         """A handle for one controller. Without `product`: the product line discovery found for the
-        ID on this bus (nurimc.products), else MC."""
+        ID on this bus (nurimc.procedures.products), else MC."""
         return Motor(self, device_id, product or self.core.products.get(device_id, "mc"))
 
     def close(self) -> None:

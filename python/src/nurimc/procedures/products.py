@@ -20,10 +20,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .client.actions import Procedure
-from .client.core import BusCore
-from .errors import NoAnswer, UnexpectedAnswer
-from .protocol import Request, line
+from ..core.actions import Procedure
+from ..core.buscore import BusCore
+from ..errors import NoAnswer, UnexpectedAnswer
+from ..protocol import Request, line
 
 #: the rule in order: (line named by an answer, the request that line answers and others do not)
 RULE: tuple[tuple[str, str], ...] = (
@@ -82,6 +82,6 @@ def detect_line(core: BusCore, device_id: int) -> Procedure[Identified]:
 
 
 def line_of_product(product: str) -> str:
-    from .protocol._lines import PRODUCT_LINES
+    from ..protocol._lines import PRODUCT_LINES
 
     return PRODUCT_LINES.get(product, product)

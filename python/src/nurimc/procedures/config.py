@@ -12,13 +12,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from . import backup as backup_file
-from .client.actions import Procedure, Wait
-from .client.core import BusCore
-from .collisions import IdShared, check_free, check_not_shared, ping_alone, shared_message
-from .errors import ConfirmationRequired, IdInUse, InputError, NoAnswer, SettingNotApplied, UnexpectedAnswer
-from .motor import VERIFY_WINDOW, MotorProcedures
-from .protocol import (
+from ..core.actions import Procedure, Wait
+from ..core.buscore import BusCore
+from ..errors import ConfirmationRequired, IdInUse, InputError, NoAnswer, SettingNotApplied, UnexpectedAnswer
+from ..protocol import (
     BAUD_RATES,
     DEVICE_DEFAULTS,
     PROTOCOL,
@@ -31,13 +28,16 @@ from .protocol import (
     baud_index,
     product_line,
 )
+from . import backup as backup_file
+from .collisions import IdShared, check_free, check_not_shared, ping_alone, shared_message
+from .motor import VERIFY_WINDOW, MotorProcedures
 from .settings import SETTINGS, Setting, confirmed_answer
 
 BACKUP_FORMAT = backup_file.FORMAT
 
 
 def _in_line(core: BusCore, command: Command) -> Command:
-    """The command in the product line known for its ID (nurimc.products; MC if none is known):
+    """The command in the product line known for its ID (nurimc.procedures.products; MC if none is known):
     the same setting has another mode in another line, and an SM's ID and baud codes are disputed."""
     product = core.products.get(command.id, "mc")
     target = product_line(product)
@@ -75,7 +75,7 @@ def change_id(core: BusCore, old: int, new: int) -> Procedure[None]:
     if (yield from ping_alone(core, new)) != "none":
         raise IdInUse(f"ID {new} already answers at {core.baudrate} bps; pick a free ID (see `nurimc scan`)")
     answering = yield from ping_alone(core, old)
-    if answering == "shared":  # a write to a shared ID changes them all: still shared (nurimc.collisions)
+    if answering == "shared":  # a write to a shared ID changes them all: still shared (nurimc.procedures.collisions)
         raise IdShared(shared_message(old, core.baudrate) + "; nothing was written")
     if answering == "none":
         raise NoAnswer("request_ping", old, core.baudrate, core.retries + 1)
@@ -154,7 +154,7 @@ def factory_reset(core: BusCore, device_id: int, confirm: bool = False, allow_sh
     """Restore the document's defaults. The controller comes back as ID 0 at 9,600 bps.
 
     Refused (IdInUse, nothing sent) when another controller already answers as ID 0 at 9,600
-    bps, unless allow_shared: the two would share ID 0 (nurimc.collisions); and when several
+    bps, unless allow_shared: the two would share ID 0 (nurimc.procedures.collisions); and when several
     controllers share `device_id` (all of them would be reset)."""
     if not confirm:
         raise ConfirmationRequired(
@@ -322,12 +322,12 @@ def _restore_motor(motor: MotorProcedures, saved: dict[str, Any]) -> Procedure[l
 
 
 def save_backup(document: dict[str, Any], path: str | Path) -> None:
-    """Check the document and write it atomically (nurimc.backup)."""
+    """Check the document and write it atomically (nurimc.procedures.backup)."""
     backup_file.save(document, path)
 
 
 def load_backup(path: str | Path) -> dict[str, Any]:
-    """Read and check a backup file (nurimc.backup): BackupError (a ValueError) names the file,
+    """Read and check a backup file (nurimc.procedures.backup): BackupError (a ValueError) names the file,
     motor and field of anything it does not hold as we wrote it."""
     try:
         return backup_file.load(path)

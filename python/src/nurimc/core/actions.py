@@ -1,7 +1,7 @@
 """The primitive I/O actions that procedures yield and drivers carry out.
 
 Procedures (generators) hold all the logic and know nothing of ports, threads or clocks;
-a driver (sync: nurimc.client.sync, asyncio: nurimc.client.aio) performs each action and
+a driver (sync: nurimc.drivers.sync, asyncio: nurimc.drivers.aio) performs each action and
 sends its result back into the generator. Times are the driver's clock (seconds, monotonic);
 a procedure only compares and adds them. The contract between the two: docs/drivers.md.
 """

@@ -13,11 +13,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .client.actions import Procedure
-from .client.core import BusCore
-from .errors import UnconfirmedRead, UnknownSetting, ValueOutOfRange
-from .protocol import SPECS, Command, FieldSpec, Message, MessageSpec, Request, units
-from .protocol._settings import SETTINGS as _SPEC_SETTINGS
+from ..core.actions import Procedure
+from ..core.buscore import BusCore
+from ..errors import UnconfirmedRead, UnknownSetting, ValueOutOfRange
+from ..protocol import SPECS, Command, FieldSpec, Message, MessageSpec, Request, units
+from ..protocol._settings import SETTINGS as _SPEC_SETTINGS
 
 _INPUT_RULES = {s["name"]: s["input"] for s in _SPEC_SETTINGS}
 

@@ -21,13 +21,13 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from .client.actions import Note, Now, Procedure
-from .client.core import BusCore
-from .client.timing import MAX_RESPONSE_TIME
-from .errors import CorruptedAnswer, FixedRate, NoAnswer, RateRefused, UnexpectedAnswer
+from ..core.actions import Note, Now, Procedure
+from ..core.buscore import BusCore
+from ..core.timing import MAX_RESPONSE_TIME
+from ..errors import CorruptedAnswer, FixedRate, NoAnswer, RateRefused, UnexpectedAnswer
+from ..protocol import BAUD_RATES, Firmware, RequestFirmware, RequestPing
+from ..protocol.host import DISCOVERY_RATE_ORDER
 from .products import detect_line
-from .protocol import BAUD_RATES, Firmware, RequestFirmware, RequestPing
-from .protocol.host import DISCOVERY_RATE_ORDER
 
 # Most likely first: the default, then the usual fast rates, then the rest (spec/host.json).
 RATE_ORDER = DISCOVERY_RATE_ORDER
@@ -42,7 +42,7 @@ class Found:
     baudrate: int
     firmware: int | None
     collision: bool = False  # several controllers answer at this ID and rate
-    line: str = "unknown"  # product line by the vendor's rule (nurimc.products); "unknown" if none matched
+    line: str = "unknown"  # product line by the vendor's rule (nurimc.procedures.products); "unknown" if none matched
 
 
 @dataclass(frozen=True, slots=True)
@@ -198,7 +198,7 @@ def discover(
                     f = Found(f.id, f.baudrate, answer.fields()["version"], f.collision)
                 except (NoAnswer, UnexpectedAnswer):
                     pass
-            if lines and not f.collision:  # each controller's product line (nurimc.products)
+            if lines and not f.collision:  # each controller's product line (nurimc.procedures.products)
                 identified = yield from detect_line(core, f.id)
                 f = Found(f.id, f.baudrate, f.firmware, f.collision, identified.line)
             result.append(f)

@@ -5,10 +5,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from ..core.buscore import BusCore
+from ..core.timing import Timing
 from ..transport import Transport
-from .core import BusCore
-from .log import FrameRecorder, TrafficLog
-from .timing import Timing
+from ..transport.trafficlog import FrameRecorder, TrafficLog
 
 
 class Listeners:

@@ -2,7 +2,7 @@
 and for the tuner the current peak and oscillation.
 
 Pure functions over recorded samples (no I/O): the console's step-response view and the tuner
-(nurimc.tuning) measure with the same rules. One definition for every language:
+(nurimc.procedures.tuning) measure with the same rules. One definition for every language:
 spec/vectors/step-figures.json states it and holds cases that tell 90 % from 80 %, 10 % from 20 %
 and a 2 % band from a 5 % one; `analyse` here, the TypeScript library (ts/src/stepfigures.ts) and
 the console page (core/stepfigures.js) all run them. `response_figures` adds what a tuner needs.

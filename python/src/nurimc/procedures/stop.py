@@ -12,13 +12,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..client.actions import Note, Now, Procedure, WaitUntil
-from ..client.core import BusCore
+from ..core.actions import Note, Now, Procedure, WaitUntil
+from ..core.buscore import BusCore
 from ..errors import NurimcError, PortLost
-from ..motor import MotorProcedures
 from ..protocol import BROADCAST_ID, SetControl
 from ..protocol.host import STOP_RECHECK, STOP_VERIFY
-from ..settings import setting
+from .motor import MotorProcedures
+from .settings import setting
 
 #: s between two read-backs of a motor that did not answer (its timeouts would hold the bus up)
 SILENT_RECHECK = 0.25

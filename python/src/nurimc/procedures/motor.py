@@ -10,15 +10,14 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Concatenate, Generic, ParamSpec, Protocol, TypeVar, overload
+from typing import TYPE_CHECKING
 
-from .client.actions import Now, Procedure, Wait
-from .client.core import BusCore
-from .errors import InputError, NoAnswer, NotArrived, SettingNotApplied, ValueOutOfRange
-from .multiturn import WRAP_DEGREES, TurnTracker, signed_degrees
-from .protocol import (
+from ..core.actions import Now, Procedure, Wait
+from ..core.buscore import BusCore
+from ..core.handles import AsyncHandle, AsyncRunner, HandleCall, SyncHandle, SyncRunner
+from ..errors import InputError, NoAnswer, NotArrived, SettingNotApplied, ValueOutOfRange
+from ..protocol import (
     BROADCAST_ID,
     PRODUCTS,
     AccelSpeed,
@@ -30,7 +29,8 @@ from .protocol import (
     product_line,
     units,
 )
-from .protocol.host import BUSY_POLL_INTERVAL, LIMITS
+from ..protocol.host import BUSY_POLL_INTERVAL, LIMITS
+from .multiturn import WRAP_DEGREES, TurnTracker, signed_degrees
 from .settings import SETTINGS, Setting, confirmed_answer, fields_differ, setting
 
 if TYPE_CHECKING:
@@ -360,7 +360,7 @@ class MotorProcedures:
     def state_from(self, answer: Message, at: float | None = None, sign: int | None = None) -> MotorState:
         """A MotorState from a position feedback answer (also used by group reads), or, on a
         line without one (SM), from a speed feedback answer: position in its 0.1 deg, speed signed.
-        `at`: when it was read (the bus clock), for the multi-turn tracking (nurimc.multiturn);
+        `at`: when it was read (the bus clock), for the multi-turn tracking (nurimc.procedures.multiturn);
         `sign`: the speed's sign when known otherwise (speed feedback read just after)."""
         f = answer.fields()
         signed = answer.name == "speed_feedback"
@@ -503,7 +503,7 @@ class MotorProcedures:
         trials: int = 24,
         apply: bool = False,
     ) -> Procedure[TuneResult]:
-        """Tune the position or speed loop's gains on the motor (nurimc.tuning, docs/tuning.md):
+        """Tune the position or speed loop's gains on the motor (nurimc.procedures.tuning, docs/tuning.md):
         small steps inside the envelope (travel deg around here, max rpm, max current A); the
         starting gains are written back unless `apply`, and on any error or interruption."""
         from .tuning import tune
@@ -521,76 +521,6 @@ class MotorProcedures:
             self.core.control_released[self.id] = raw == 1
 
 
-P = ParamSpec("P")
-T = TypeVar("T")
-
-
-class SyncRunner(Protocol):
-    """What a sync handle needs of its bus (nurimc.client.sync.Bus). A protocol, not an
-    import: the buses hand out motors, so motor must not import them (no import cycle)."""
-
-    @property
-    def core(self) -> BusCore: ...
-    def run(self, procedure: Procedure[T]) -> T: ...
-
-
-class AsyncRunner(Protocol):
-    """What an async handle needs of its bus (nurimc.client.aio.AsyncBus)."""
-
-    @property
-    def core(self) -> BusCore: ...
-    async def run(self, procedure: Procedure[T]) -> T: ...
-
-
-class SyncHandle:
-    """A handle whose calls run now and return their result."""
-
-    bus: SyncRunner
-
-
-class AsyncHandle:
-    """A handle whose calls return awaitables."""
-
-    bus: AsyncRunner
-
-
-class _Call(Generic[P, T]):
-    """One handle call, written once: runs its procedure on the handle's bus, sync or async.
-    The handle's `procedures` (MotorProcedures, GroupProcedures) is the procedure's `self`."""
-
-    def __init__(self, procedure: Callable[Concatenate[Any, P], Procedure[T]]) -> None:
-        self.procedure = procedure
-        self.__doc__ = procedure.__doc__
-        self.name = procedure.__name__
-
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name = name
-
-    @overload
-    def __get__(self, handle: None, owner: type) -> _Call[P, T]: ...
-    @overload
-    def __get__(self, handle: SyncHandle, owner: type) -> Callable[P, T]: ...
-    @overload
-    def __get__(self, handle: AsyncHandle, owner: type) -> Callable[P, Awaitable[T]]: ...
-    def __get__(self, handle: object, owner: type) -> Any:
-        if handle is None:
-            return self
-        procedure = self.procedure
-        procedures = handle.procedures  # type: ignore[attr-defined]
-        run = handle.bus.run  # type: ignore[attr-defined]
-
-        @functools.wraps(procedure)
-        def call(*args: P.args, **kwargs: P.kwargs) -> Any:
-            return run(procedure(procedures, *args, **kwargs))
-
-        # made once per handle: kept in the handle, where it is found before this descriptor
-        # (a handle's procedures and bus never change); a handle with __slots__ makes it each time
-        own = getattr(handle, "__dict__", None)
-        if own is not None:
-            own[self.name] = call
-        return call
-
-
 class MotorApi:
     """The motor API, once for both buses. Every call sends now (or raises); make_* build only."""
 
@@ -605,20 +535,20 @@ class MotorApi:
     def __repr__(self) -> str:
         return f"{type(self).__name__}(id={self.id}, product={self.procedures.profile.key!r})"
 
-    move_to = _Call(MotorProcedures.move_to)
-    move_by = _Call(MotorProcedures.move_by)
-    run = _Call(MotorProcedures.run)
-    wait_until_arrived = _Call(MotorProcedures.wait_until_arrived)
-    stop = _Call(MotorProcedures.stop)
-    release = _Call(MotorProcedures.release)
-    hold = _Call(MotorProcedures.hold)
-    read_state = _Call(MotorProcedures.read_state)
-    read_speed = _Call(MotorProcedures.read_speed)
-    ping = _Call(MotorProcedures.ping)
-    get = _Call(MotorProcedures.get)
-    set = _Call(MotorProcedures.set)
-    read_settings = _Call(MotorProcedures.read_settings)
-    tune = _Call(MotorProcedures.tune)
+    move_to = HandleCall(MotorProcedures.move_to)
+    move_by = HandleCall(MotorProcedures.move_by)
+    run = HandleCall(MotorProcedures.run)
+    wait_until_arrived = HandleCall(MotorProcedures.wait_until_arrived)
+    stop = HandleCall(MotorProcedures.stop)
+    release = HandleCall(MotorProcedures.release)
+    hold = HandleCall(MotorProcedures.hold)
+    read_state = HandleCall(MotorProcedures.read_state)
+    read_speed = HandleCall(MotorProcedures.read_speed)
+    ping = HandleCall(MotorProcedures.ping)
+    get = HandleCall(MotorProcedures.get)
+    set = HandleCall(MotorProcedures.set)
+    read_settings = HandleCall(MotorProcedures.read_settings)
+    tune = HandleCall(MotorProcedures.tune)
 
 
 class Motor(MotorApi, SyncHandle):

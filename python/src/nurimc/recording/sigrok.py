@@ -25,9 +25,9 @@ from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
 
-from .budgets import MIB, ReadBudget, default_budget
-from .errors import InputError
-from .protocol import BAUD_RATES, BY_MODE, StreamParser
+from ..budgets import MIB, ReadBudget, default_budget
+from ..errors import InputError
+from ..protocol import BAUD_RATES, BY_MODE, StreamParser
 
 Entry = tuple[float, str, bytes]
 HOST_KINDS = ("command", "request")
@@ -67,8 +67,8 @@ def read_capture(path: str | Path, baud: int | None = None, budget: ReadBudget |
 def convert_to_mcap(source: str | Path, mcap_path: str | Path, baud: int | None = None) -> int:
     """Write every frame of a traffic log or capture to an MCAP file's /nurimc/frames topic, at
     its time in the log after the source file's modification time; returns the frame count."""
-    from .recording.mcap_file import FRAMES_TOPIC, McapRecorder
-    from .trafficlog import read_traffic_log
+    from ..transport.trafficlog import read_traffic_log
+    from .mcap_file import FRAMES_TOPIC, McapRecorder
 
     capture = read_capture(source, baud)
     entries = read_traffic_log(str(source)) if capture is None else capture

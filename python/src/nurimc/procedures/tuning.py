@@ -3,7 +3,7 @@
 The controller is a black box (the document gives only the gains' ranges; their scaling
 differs per product), so the tuner measures, changes, measures again: each trial writes one
 gain set (one EEPROM write, the busy window waited out by the bus core), makes one small step
-inside the envelope and judges the response with nurimc.stepresponse.
+inside the envelope and judges the response with nurimc.procedures.stepresponse.
 
 Method: a pattern (coordinate) search in the gains' log space from the starting gains. Each
 sweep tries every gain a factor (1 + r) up and down, keeps the first set that scores better,
@@ -24,13 +24,13 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from .client.actions import Note, Now, Procedure, Wait
-from .errors import InputError, NoAnswer, NurimcError, PortLost
-from .protocol import Message
+from ..core.actions import Note, Now, Procedure, Wait
+from ..errors import InputError, NoAnswer, NurimcError, PortLost
+from ..protocol import Message
 from .settings import confirmed_answer, setting
 from .stepresponse import ResponseFigures, response_figures
 
-# The motor is a nurimc.motor.MotorProcedures, and a reading its MotorState; they are not
+# The motor is a nurimc.procedures.motor.MotorProcedures, and a reading its MotorState; they are not
 # imported here (not even for types): motor.py's tune() imports this module, and the package
 # has no import cycles (tests/test_imports.py).
 MotorProcedures = Any

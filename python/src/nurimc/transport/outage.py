@@ -20,10 +20,10 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Iterable
 
-from .errors import PortLost
-from .protocol import SetControl
-from .transport.base import Transport
-from .transport.reconnect import PortEvent, ReconnectingTransport, reconnecting
+from ..errors import PortLost
+from ..protocol import SetControl
+from .base import Transport
+from .reconnect import PortEvent, ReconnectingTransport, reconnecting
 
 
 def stderr_line(text: str) -> None:

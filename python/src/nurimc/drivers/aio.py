@@ -11,16 +11,16 @@ import asyncio
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from ..motor import AsyncMotor
+from ..core.actions import Procedure
+from ..core.buscore import BusCore
+from ..core.clock import REAL_CLOCK, Clock
+from ..core.timing import Timing
+from ..procedures.motor import AsyncMotor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
-from .actions import Procedure
-from .clock import REAL_CLOCK, Clock
-from .core import BusCore
-from .log import FrameRecorder
+from ..transport.trafficlog import FrameRecorder
 from .options import Listeners, make_core
 from .perform import Performer, ReadFor, steps
-from .timing import Timing
 
 T = TypeVar("T")
 
@@ -135,7 +135,7 @@ class AsyncBus:
 
     def motor(self, device_id: int, product: str | None = None) -> AsyncMotor:
         """A handle for one controller. Without `product`: the product line discovery found for the
-        ID on this bus (nurimc.products), else MC."""
+        ID on this bus (nurimc.procedures.products), else MC."""
         return AsyncMotor(self, device_id, product or self.core.products.get(device_id, "mc"))
 
     async def close(self) -> None:

@@ -89,7 +89,7 @@ class BusCore:
     #: control state per ID as last sent or read: True = released (off), False = on
     control_released: dict[int, bool] = field(default_factory=dict)
     #: commands sent per ID (the broadcast ID counts for every motor): a motor at rest with none
-    #: since its last reading has not moved (nurimc.multiturn)
+    #: since its last reading has not moved (nurimc.procedures.multiturn)
     commands_sent: dict[int, int] = field(default_factory=dict)
     # host-clock time each ID's busy window ends (kept after it ends, to name the error right)
     _busy_until: dict[int, float] = field(default_factory=dict)
@@ -442,7 +442,7 @@ class BusCore:
         yield from self._wait_until_free({c.id for c in commands})
         data = b"".join(c.encode() for c in commands)
         sent: Sent = yield Send(data)
-        for command in commands:  # what a motor was told since a reading (nurimc.multiturn's rest rule)
+        for command in commands:  # what a motor was told since a reading (nurimc.procedures.multiturn's rest rule)
             self.commands_sent[command.id] = self.commands_sent.get(command.id, 0) + 1
         self._mark_busy(commands, sent, len(data))
 

@@ -15,11 +15,11 @@ from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from ..core.actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
+from ..core.clock import REAL_CLOCK, Clock
 from ..errors import CallTimeout
 from ..transport import Transport
-from .actions import Action, Discard, Note, Now, Procedure, Receive, Send, Sent, SetHostBaud, Wait, WaitUntil
-from .clock import REAL_CLOCK, Clock
-from .log import FrameRecorder
+from ..transport.trafficlog import FrameRecorder
 
 #: how long a read that starts after its deadline still looks for bytes that already came
 LATE_READ = 0.0005

@@ -14,21 +14,12 @@ import math
 from collections.abc import Sequence
 from typing import Protocol
 
-from .client.actions import Now, Procedure
-from .client.core import BusCore
-from .errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
-from .motor import (
-    AsyncHandle,
-    AsyncMotor,
-    AsyncRunner,
-    Motor,
-    MotorProcedures,
-    MotorState,
-    SyncHandle,
-    SyncRunner,
-    _Call,
-)
-from .protocol import Command, RequestPosition, SetResponseTime
+from ..core.actions import Now, Procedure
+from ..core.buscore import BusCore
+from ..core.handles import AsyncHandle, AsyncRunner, HandleCall, SyncHandle, SyncRunner
+from ..errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
+from ..protocol import Command, RequestPosition, SetResponseTime
+from .motor import AsyncMotor, Motor, MotorProcedures, MotorState
 from .settings import SETTINGS
 
 FEEDBACK_LENGTH = 12  # bytes of a position feedback frame
@@ -152,10 +143,10 @@ class GroupApi:
     def slot(self, value: int | None) -> None:
         self.procedures.slot = value
 
-    command = _Call(GroupProcedures.command)
-    read_states = _Call(GroupProcedures.read_states)
-    stagger = _Call(GroupProcedures.stagger)
-    read_states_broadcast = _Call(GroupProcedures.read_states_broadcast)
+    command = HandleCall(GroupProcedures.command)
+    read_states = HandleCall(GroupProcedures.read_states)
+    stagger = HandleCall(GroupProcedures.stagger)
+    read_states_broadcast = HandleCall(GroupProcedures.read_states_broadcast)
 
 
 class Group(GroupApi, SyncHandle):

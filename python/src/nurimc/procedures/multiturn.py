@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .protocol.host import LIMITS
+from ..protocol.host import LIMITS
 
 WRAP_DEGREES = LIMITS["position_wrap_deg"]  # the device's position wraps here (spec/host.json)
 #: The fastest change of speed assumed possible, deg/s^2 (0 to 3,000 RPM in 0.18 s).

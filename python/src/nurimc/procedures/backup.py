@@ -16,9 +16,9 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError
-from .inputs import Rounded, field_value, integer, json_document, show
-from .protocol import BAUD_RATES, PRODUCTS
+from ..errors import InputError
+from ..inputs import Rounded, field_value, integer, json_document, show
+from ..protocol import BAUD_RATES, PRODUCTS
 from .settings import SETTINGS
 
 FORMAT = "nurimc-backup/1"

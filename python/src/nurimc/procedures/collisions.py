@@ -13,7 +13,7 @@ the way out is physical: connect one at a time, then give each an ID.
 - `check_free(core, id, rate)`: raises IdInUse if the ID already answers at `rate` (asked there;
   the bus goes back to its rate afterwards): before a change that would put a controller on it.
 
-These are procedures (they yield actions) like nurimc.config, which calls them before `set id`,
+These are procedures (they yield actions) like nurimc.procedures.config, which calls them before `set id`,
 `set baud` and factory reset.
 """
 
@@ -21,10 +21,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-from .client.actions import Procedure
-from .client.core import BusCore
-from .errors import CorruptedAnswer, IdInUse, NoAnswer, UnexpectedAnswer
-from .protocol import RequestPing
+from ..core.actions import Procedure
+from ..core.buscore import BusCore
+from ..errors import CorruptedAnswer, IdInUse, NoAnswer, UnexpectedAnswer
+from ..protocol import RequestPing
 
 Answering = Literal["none", "one", "shared"]
 
