@@ -51,7 +51,7 @@ def test_help_and_version_import_no_command_module_and_no_serial_port_code() -> 
     for args in (["--help"], ["--version"]):
         code, modules = modules_after(*args)
         assert code == 0
-        loaded = [m for m in modules if m.startswith(("nurimc.cli.", "nurimc.client", "nurimc.transport", "serial"))]
+        loaded = [m for m in modules if m.startswith(("nurimc.cli.", "nurimc.drivers", "nurimc.transport", "serial"))]
         assert set(loaded) <= {
             "nurimc.cli.app",
             "nurimc.cli.common",
