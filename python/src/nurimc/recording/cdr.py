@@ -165,9 +165,7 @@ class _Writer:
         self.out += struct.pack("<" + fmt, value)
 
     def string(self, value: str) -> None:
-        data = value.encode("utf-8")
-        if b"\0" in data:
-            raise CdrError("a string with a NUL character cannot be written")
+        data = value.encode("utf-8")  # a NUL inside is written as it is (as Cyclone DDS does)
         self.primitive("uint32", len(data) + 1)
         self.out += data + b"\0"
 
