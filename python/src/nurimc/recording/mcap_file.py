@@ -6,8 +6,10 @@ tracer (`record(direction, data)`): every whole frame the host sends or receives
 Foxglove, PlotJuggler, `ros2 bag` (Humble with the mcap storage plugin, Jazzy by default),
 the `mcap` tools and rosbags.
 
-Writing needs only the `mcap` package: without Cyclone DDS the messages are ros2/msgs.py's plain
-dataclasses, serialised by recording/cdr.py to the same bytes, with the same type hashes.
+Writing needs only the `mcap` package: the CDR bytes come from recording/cdr.py, with or without
+Cyclone DDS installed (its bytes are Cyclone DDS's for the same message, tests compare them, and
+it is faster: benchmarks/cdr_writer.py); without Cyclone DDS the messages are ros2/msgs.py's plain
+dataclasses, and the type hashes come from cdr.TYPE_HASHES.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from mcap.writer import CompressionType, Writer
 from .. import __version__
 from ..protocol import StreamParser, wire_bytes
 from ..ros2 import msgs
-from .cdr import TYPE_HASHES
+from .cdr import TYPE_HASHES, serialize
 from .checkpoint import CheckpointFailed, CheckpointStream, checkpoint, finish
 
 FRAMES_TOPIC = "/nurimc/frames"
@@ -131,11 +133,12 @@ class McapRecorder:
         """One message (a nurimc.ros2.msgs or base_msgs instance) on a topic, logged at `log_time_ns`
         (now if not given)."""
         t = time.time_ns() if log_time_ns is None else log_time_ns
-        data = message.serialize()
+        ros_type = msgs.ros_type_of(message)
+        data = serialize(ros_type, message)
         with self._lock:
             if self._closed:
                 return
-            channel = self._channel(topic, msgs.ros_type_of(message), type(message))
+            channel = self._channel(topic, ros_type, type(message))
             self._writer.add_message(channel_id=channel, log_time=t, data=data, publish_time=t)
             self.counts[topic] = self.counts.get(topic, 0) + 1
 
