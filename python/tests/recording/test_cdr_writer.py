@@ -259,6 +259,15 @@ def test_record_writes_a_readable_file_without_cyclone(tmp_path: Path) -> None:
                 assert bytes(decoded.data)[:2] == b"\xff\xfe"
     assert seen == counts
 
+    # repair-mcap needs no DDS stack either: a complete file is copied whole
+    fixed = tmp_path / "fixed.mcap"
+    repair = ["nurimc", "repair-mcap", str(path), "--out", str(fixed)]
+    proc = no_dds(f"from nurimc.cli.app import main\nsys.argv = {repair!r}\nmain()\n")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert_no_dds(proc)
+    assert f"copied {summary.messages} messages" in proc.stdout
+    assert {t.topic: t.count for t in summarize(fixed).topics} == counts
+
 
 def test_record_without_mcap_says_what_to_install(tmp_path: Path) -> None:
     path = tmp_path / "run.mcap"
