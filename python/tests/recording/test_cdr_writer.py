@@ -23,6 +23,7 @@ from nurimc.recording import cdr
 from nurimc.recording.summary import decode_frame, decode_joint_state, summarize
 from nurimc.ros2 import msgs
 
+from ..ros2.test_cdr import STRATEGIES  # the strategies that compare our bytes with rosbags'
 from .cdr_samples import samples
 
 cyclonedds = pytest.importorskip("cyclonedds")
@@ -145,6 +146,14 @@ def test_random_frames_and_diagnostics_serialise_as_cyclone_does(
     status = msgs.DiagnosticStatus(level, name, direction, name, [msgs.KeyValue(k, v) for k, v in pairs])
     array = msgs.DiagnosticArray(msgs.Header(msgs.Time(5, 6), name), [status, status])
     assert cdr.serialize("diagnostic_msgs/msg/DiagnosticArray", array) == array.serialize()
+
+
+@pytest.mark.parametrize("ros_type", sorted(msgs.TYPES))
+@settings(max_examples=30, deadline=None)
+@given(data=st.data())
+def test_random_messages_of_every_type_serialise_as_cyclone_does(ros_type: str, data: st.DataObject) -> None:
+    message = data.draw(STRATEGIES[ros_type])
+    assert cdr.serialize(ros_type, message) == message.serialize()
 
 
 def test_a_value_that_does_not_fit_is_a_clear_error() -> None:
