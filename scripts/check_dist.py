@@ -6,6 +6,8 @@ Usage: check_dist.py DIST
 - the wheel carries the console's page, its third-party files with their licences, py.typed;
 - installed alone into a clean venv (no source tree on sys.path, run from a scratch folder) the
   CLI works on a simulated bus, and `nurimc dashboard` names the missing extra in one line;
+- `nurimc record` names the `record` extra when mcap is missing, and with that extra alone (no
+  Cyclone DDS) writes a recording that `nurimc inspect` reads;
 - with `nurimc[dashboard]` it serves the console, and every file the page names answers 200;
 - the npm tarball installs into a scratch project and imports from Node (ESM).
 Prints one line per check and `check-dist: N passed, N failed`.
@@ -220,9 +222,40 @@ def main(dist: Path) -> int:
         def install_extra() -> None:
             run([*pip, f"{wheel}[dashboard]"], scratch, env)
 
+        def record_hint() -> str:
+            mcap = scratch / "run.mcap"
+            proc = subprocess.run(
+                [str(nurimc), "--port", "sim://?ids=1", "record", "--mcap", str(mcap), "--seconds", "0.3"],
+                cwd=scratch,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            lines = proc.stderr.strip().splitlines()
+            if proc.returncode != 2 or len(lines) != 1 or "nurimc[record]" not in lines[0]:
+                raise RuntimeError(f"exit {proc.returncode}, stderr {proc.stderr!r}")
+            return lines[0]
+
+        def record_without_dds() -> str:
+            """`record` with the record extra alone (mcap, no Cyclone DDS): a file inspect reads."""
+            run([*pip, f"{wheel}[record]"], scratch, env)
+            dds = subprocess.run([str(python), "-c", "import cyclonedds"], cwd=scratch, env=env, capture_output=True)
+            if dds.returncode == 0:
+                raise RuntimeError("cyclonedds is installed in the clean venv: the check would prove nothing")
+            mcap = scratch / "run.mcap"
+            record = [str(nurimc), "--port", "sim://?ids=1,2", "record", "--mcap", str(mcap), "--seconds", "0.5"]
+            wrote = run(record, scratch, env)
+            summary = json.loads(run([str(nurimc), "--json", "inspect", str(mcap)], scratch, env))
+            if summary.get("motors") != ["motor_1", "motor_2"] or not summary.get("messages"):
+                raise RuntimeError(f"unexpected recording: {wrote!r} {summary}")
+            return f"{summary['messages']} messages, motors {summary['motors']}"
+
         checks.run("clean venv: pip install the wheel (no extras)", install_base)
         checks.run("clean venv: CLI on a simulated bus", cli_smoke)
         checks.run("clean venv: `nurimc dashboard` without the extra names it", extra_hint)
+        checks.run("clean venv: `nurimc record` without mcap names the record extra", record_hint)
+        checks.run("clean venv: `nurimc record` with the record extra only (no DDS)", record_without_dds)
         checks.run("clean venv: pip install 'nurimc[dashboard]'", install_extra)
         checks.run(
             "clean venv: the console serves every file its page names", lambda: serve_console(nurimc, scratch, env)

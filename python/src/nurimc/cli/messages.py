@@ -135,6 +135,8 @@ PATTERNS: tuple[str, ...] = (
     "{path}: no {schema} samples to export",
     "{path}: no {schema} samples on {topic} to export",
     "reading MCAP needs the mcap package: pip install mcap",
+    "writing MCAP needs the mcap package: pip install 'nurimc[record]' (or: pip install mcap)",
+    "this command needs the ros2 extra: pip install 'nurimc[ros2]' (cyclonedds, mcap)",
     "wrote {target}: {n} messages kept; {torn} stopped at {problem}",
     "wrote {target}: {n} messages kept; skipped in {torn}: {problem}",
     "nothing kept from {torn}: {problem}",

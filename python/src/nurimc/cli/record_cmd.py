@@ -76,9 +76,9 @@ def record(
     o = options(ctx)
     from ..service.share import AttachedBus
     from .attach import SharedReadings
-    from .ros2_cmd import motor_ids, need_extra, open_traced_bus, wait_for_signal
+    from .ros2_cmd import motor_ids, need_mcap, open_traced_bus, wait_for_signal
 
-    need_extra()
+    need_mcap()  # no DDS stack: the messages are written by recording/cdr.py
     if source is not None:  # docs/sigrok.md: a capture from a real robot, into Foxglove
         from ..recording.sigrok import convert_to_mcap
 
@@ -191,9 +191,9 @@ def repair_mcap(
 
     Example: nurimc repair-mcap run.mcap --out run-fixed.mcap
     """
-    from .ros2_cmd import need_extra
+    from .ros2_cmd import need_mcap
 
-    need_extra()
+    need_mcap()
     from ..budgets import default_budget
     from ..recording.repair import repair
 

@@ -41,6 +41,17 @@ def need_extra() -> None:
         fail(EXTRA_HINT)
 
 
+MCAP_HINT = "writing MCAP needs the mcap package: pip install 'nurimc[record]' (or: pip install mcap)"
+
+
+def need_mcap() -> None:
+    """`record` and `repair-mcap` write MCAP with recording/cdr.py: the mcap package, no DDS stack."""
+    try:
+        import mcap  # noqa: F401
+    except ImportError:
+        fail(MCAP_HINT)
+
+
 def open_traced_bus(o: Options, recorder: Any | None, reconnect: bool = True) -> Bus:
     """Like common.open_bus, with an MCAP recorder (and -v's printer) seeing every byte."""
     port = o.port or os.environ.get("NURIMC_PORT")

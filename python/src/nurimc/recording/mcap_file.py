@@ -5,6 +5,11 @@ tracer (`record(direction, data)`): every whole frame the host sends or receives
 `nurimc_msgs/msg/Frame` on /nurimc/frames, with its time and direction. The file opens in
 Foxglove, PlotJuggler, `ros2 bag` (Humble with the mcap storage plugin, Jazzy by default),
 the `mcap` tools and rosbags.
+
+Writing needs only the `mcap` package: the CDR bytes come from recording/cdr.py, with or without
+Cyclone DDS installed (its bytes are Cyclone DDS's for the same message, tests compare them, and
+it is faster: benchmarks/cdr_writer.py); without Cyclone DDS the messages are ros2/msgs.py's plain
+dataclasses, and the type hashes come from cdr.TYPE_HASHES.
 """
 
 from __future__ import annotations
@@ -16,14 +21,14 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-from cyclonedds.idl import IdlStruct
 from mcap.writer import CompressionType, Writer
 
 from .. import __version__
 from ..protocol import StreamParser, wire_bytes
 from ..ros2 import msgs
-from ..ros2.typehash import type_hash
+from .cdr import TYPE_HASHES, serialize
 from .checkpoint import CheckpointFailed, CheckpointStream, checkpoint, finish
 
 FRAMES_TOPIC = "/nurimc/frames"
@@ -107,7 +112,7 @@ class McapRecorder:
         )
         self.failed = f"cannot write {self.path}: {error.strerror or error}; {after}"
 
-    def _channel(self, topic: str, ros_type: str, data_type: type[IdlStruct] | None = None) -> int:
+    def _channel(self, topic: str, ros_type: str, data_type: type[Any] | None = None) -> int:
         key = (topic, ros_type)
         if key not in self._channels:
             if ros_type not in self._schemas:
@@ -116,21 +121,24 @@ class McapRecorder:
                 )
             # as rosbag2 (Jazzy) writes a channel: the QoS offered on the topic and the type's RIHS01 hash
             metadata = {"offered_qos_profiles": OFFERED_QOS}
-            if data_type is not None:
-                metadata["topic_type_hash"] = type_hash(data_type)
+            hash_ = TYPE_HASHES.get(ros_type) or (_type_hash(data_type) if data_type is not None else None)
+            if hash_ is not None:
+                metadata["topic_type_hash"] = hash_
             self._channels[key] = self._writer.register_channel(
                 topic=topic, message_encoding="cdr", schema_id=self._schemas[ros_type], metadata=metadata
             )
         return self._channels[key]
 
-    def write(self, topic: str, message: IdlStruct, log_time_ns: int | None = None) -> None:
-        """One message on a topic, logged at `log_time_ns` (now if not given)."""
+    def write(self, topic: str, message: Any, log_time_ns: int | None = None) -> None:
+        """One message (a nurimc.ros2.msgs or base_msgs instance) on a topic, logged at `log_time_ns`
+        (now if not given)."""
         t = time.time_ns() if log_time_ns is None else log_time_ns
-        data = message.serialize()
+        ros_type = msgs.ros_type_of(message)
+        data = serialize(ros_type, message)
         with self._lock:
             if self._closed:
                 return
-            channel = self._channel(topic, msgs.ros_type_of(message), type(message))
+            channel = self._channel(topic, ros_type, type(message))
             self._writer.add_message(channel_id=channel, log_time=t, data=data, publish_time=t)
             self.counts[topic] = self.counts.get(topic, 0) + 1
 
@@ -169,3 +177,12 @@ class McapRecorder:
             finally:
                 os.close(self._stream.fd)
                 self._stream.fd = -1
+
+
+def _type_hash(data_type: Any) -> str | None:
+    """The RIHS01 hash of a type not in cdr.TYPE_HASHES: computed from its Cyclone DDS type."""
+    try:
+        from ..ros2.typehash import type_hash
+    except ImportError:  # no Cyclone DDS: a type outside the table has no hash in the file
+        return None
+    return type_hash(data_type)

@@ -1,15 +1,18 @@
 """The ROS 2 message types of a mobile base, as DDS types (geometry_msgs, nav_msgs, tf2_msgs).
 
 Named and laid out as ROS 2 maps them (`<pkg>::msg::dds_::<Type>_`, float64[36] -> double[36]), so
-the CDR bytes are a ROS 2 node's.
+the CDR bytes are a ROS 2 node's. Without Cyclone DDS they are plain dataclasses (see msgs.py).
 """
 
 # No `from __future__ import annotations`: Cyclone DDS reads the field types at run time.
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64
+try:
+    from cyclonedds.idl import IdlStruct
+    from cyclonedds.idl.types import float64
+except ImportError:  # no DDS stack: plain dataclasses written by recording/cdr.py
+    from ..recording.cdr import IdlStruct, float64  # type: ignore[assignment]
 
 from .msgs import Header
 
@@ -17,9 +20,13 @@ if TYPE_CHECKING:  # to the type checker a sequence or array field is the list i
     sequence = list
     Covariance = list[float]
 else:
-    from cyclonedds.idl.types import sequence
+    try:
+        from cyclonedds.idl.types import array, sequence
 
-    Covariance = array[float64, 36]  # row-major 6x6
+        Covariance = array[float64, 36]  # row-major 6x6
+    except ImportError:  # no DDS stack: plain dataclasses written by recording/cdr.py
+        sequence = list
+        Covariance = list
 
 
 def _zeros() -> list[float]:

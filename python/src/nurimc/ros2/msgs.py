@@ -5,19 +5,28 @@ Each class is a Cyclone DDS IdlStruct named as ROS 2 names the DDS type of a mes
 types ROS 2 maps them to (float64[] -> sequence<double>, byte -> octet, ...). So the CDR bytes
 are those a ROS 2 node sends (tests compare them with rosbags'). `DEFINITIONS` holds each
 message's definition in the `ros2msg` text format (with its dependencies), for MCAP schemas.
+
+Without Cyclone DDS installed the classes are plain dataclasses with the same names and fields,
+serialised to the same bytes by recording/cdr.py: `nurimc record` needs only the mcap package.
 """
 
 # No `from __future__ import annotations`: Cyclone DDS reads the field types at run time.
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import byte, float64, int32, uint8, uint32
+try:
+    from cyclonedds.idl import IdlStruct
+    from cyclonedds.idl.types import byte, float64, int32, uint8, uint32
+except ImportError:  # no DDS stack: plain dataclasses written by recording/cdr.py (`record` needs only mcap)
+    from ..recording.cdr import IdlStruct, byte, float64, int32, uint8, uint32  # type: ignore[assignment]
 
 if TYPE_CHECKING:  # to the type checker a sequence field is the list it holds
     sequence = list
 else:
-    from cyclonedds.idl.types import sequence
+    try:
+        from cyclonedds.idl.types import sequence
+    except ImportError:
+        from ..recording.cdr import sequence
 
 # -- builtin_interfaces -------------------------------------------------------------------
 
