@@ -49,7 +49,6 @@ from .common import (
 )
 from .i18n import DOMAIN, LOCALE_DIR, activated, tr, translate_help
 from .i18n import _ as tr_help
-from .placement import where_it_goes
 
 #: --port-wait's range (seconds)
 PORT_WAIT = Number("--port-wait", 0, 3600, "s")
@@ -376,6 +375,8 @@ def main(args: list[str] | None = None) -> None:
         err.print(tr("interrupted"))
         code = 130
     except Exception as error:
+        from .placement import where_it_goes  # only when click refused an option (start-up stays lean)
+
         hint = (
             where_it_goes(getattr(error, "option_name", None), args) if type(error).__name__ == "NoSuchOption" else None
         )
