@@ -253,7 +253,7 @@ def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, 
             servers.append(server)
             address = f"{server.address[0]}:{server.address[1]}"
             ready.append(address)
-            print(f"tcp {address} (socket://{address}, clients talk at {baud} bps)")
+            print(f"tcp {address} (socket://{address} talks at {baud} bps; rfc2217://{address} sets its own rate)")
         if monitor is not None:
             watcher = bus.serve_monitor(link=monitor)
             servers.append(watcher)
