@@ -164,6 +164,7 @@ export function telnetReader(onData, onSub, reply) {
 export async function startRfc2217Bridge(p, host, port) {
   const net = await import("node:net");
   const state = { socket: null, waiting: null };
+  const rates = []; // every rate the server confirmed, in order
   const send = (bytes) =>
     new Promise((resolve, reject) => state.socket.write(Uint8Array.from(bytes), (e) => (e ? reject(e) : resolve())));
   const read = telnetReader(
@@ -181,8 +182,10 @@ export async function startRfc2217Bridge(p, host, port) {
       state.waiting = (got) => {
         clearTimeout(timer);
         state.waiting = null;
-        if (got === rate) resolve();
-        else reject(new Error(`RFC 2217: asked ${rate} bps, the server is at ${got}`));
+        if (got === rate) {
+          rates.push(rate);
+          resolve();
+        } else reject(new Error(`RFC 2217: asked ${rate} bps, the server is at ${got}`));
       };
       const value = [rate >>> 24, (rate >>> 16) & 255, (rate >>> 8) & 255, rate & 255].flatMap((b) =>
         b === IAC ? [IAC, IAC] : [b],
@@ -205,5 +208,5 @@ export async function startRfc2217Bridge(p, host, port) {
     state.socket ? send(bytes.flatMap((b) => (b === IAC ? [IAC, IAC] : [b]))) : undefined,
   );
   await p.addInitScript(SERIAL_BRIDGE);
-  return { close: () => state.socket?.destroy() };
+  return { rates, close: () => state.socket?.destroy() };
 }

@@ -147,6 +147,10 @@ test("the site alone finds three controllers of two lines at three rates, with p
   await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found, null, { timeout: 90000 });
   assert.equal(await page.getAttribute("#discover-text", "data-found"), "3,7,12");
   assert.ok((await page.evaluate(() => window.dashboard.progressEvents)) >= 18, "progress for every rate");
+  if (BRIDGE === "rfc2217") {
+    // the rates went to the simulator's TCP port as SET-BAUDRATE, each confirmed
+    for (const rate of [57600, 38400, 250000]) assert.ok(bridge.rates.includes(rate), `SET-BAUDRATE ${rate}`);
+  }
   const subtitles = await page.$$eval(".card", (cards) => cards.map((c) => c.textContent));
   assert.match(
     subtitles.find((s) => s.includes("57600")),
