@@ -3,6 +3,7 @@ has its 0xFF bytes doubled both ways, and a raw client is told apart by its firs
 
 from __future__ import annotations
 
+import random
 import socket
 import struct
 import time
@@ -17,6 +18,7 @@ from nurimc.sim.rfc2217 import (
     DO,
     DONT,
     IAC,
+    MAX_SUBNEGOTIATION,
     SB,
     SE,
     SET_BAUDRATE,
@@ -97,6 +99,19 @@ def test_doubled_iac_is_one_data_byte_even_split_across_reads() -> None:
     assert b"".join(data for data, _ in rec.bus) == b"\xff\xfe\x01"
     rec.session.feed(sub(12, b"\x01"))  # PURGE-DATA receive
     assert rec.purges == 1 and bytes(rec.replies)[3:5] == bytes((112, 1))
+
+
+def test_garbage_never_raises_and_an_endless_subnegotiation_is_bounded() -> None:
+    rng = random.Random(2217)
+    rec = Recorder()
+    for _ in range(3000):
+        rec.session.feed(bytes(rng.choice((0xFF, 0xFA, 0xF0, 0xFB, 0xFD, 44, 1, rng.randrange(256))) for _ in range(9)))
+    assert len(rec.session._sub) <= MAX_SUBNEGOTIATION
+    rec = Recorder()
+    rec.session.feed(bytes((IAC, SB, COM_PORT_OPTION, SET_BAUDRATE)) + struct.pack("!I", 115200) + bytes(100_000))
+    assert len(rec.session._sub) == MAX_SUBNEGOTIATION and rec.bus == []
+    rec.session.feed(bytes((IAC, SE)) + b"\x05")
+    assert rec.bus == [(b"\x05", 9600)] and rec.replies == b""  # the overlong one dropped whole; data again
 
 
 @pytest.fixture

@@ -58,6 +58,8 @@ PURGE_BOTH = 3
 MODEMSTATE = 0x10 | 0x20
 SIGNATURE_TEXT = b"nurimc simulator"
 
+#: longest subnegotiation kept (RFC 2217's are a few bytes; a client that never ends one costs no memory)
+MAX_SUBNEGOTIATION = 256
 #: the options this server agrees to, on its side (WILL) and on the client's (DO)
 ACCEPTED = frozenset({BINARY, SGA, COM_PORT_OPTION})
 #: the second byte that makes a first IAC the start of Telnet (a frame starts FF FE: IAC DONT)
@@ -124,6 +126,7 @@ class Rfc2217Session:
         self._verb = 0
         self._data = bytearray()
         self._sub = bytearray()
+        self._overlong = False
 
     def feed(self, chunk: bytes) -> None:
         for byte in chunk:
@@ -142,6 +145,7 @@ class Rfc2217Session:
                     self._state = "option"
                 elif byte == SB:
                     self._sub.clear()
+                    self._overlong = False
                     self._state = "sub"
                 else:  # NOP, GA, AYT, ... and a stray SE: nothing to do on a serial link
                     self._state = "data"
@@ -152,17 +156,24 @@ class Rfc2217Session:
                 if byte == IAC:
                     self._state = "sub-iac"
                 else:
-                    self._sub.append(byte)
+                    self._sub_byte(byte)
             else:  # sub-iac
                 if byte == IAC:
-                    self._sub.append(IAC)
+                    self._sub_byte(IAC)
                     self._state = "sub"
                 elif byte == SE:
                     self._state = "data"
-                    self._subnegotiation(bytes(self._sub))
+                    if not self._overlong:  # an overlong one is dropped whole, never read cut short
+                        self._subnegotiation(bytes(self._sub))
                 else:  # a broken subnegotiation: drop it, read on as data
                     self._state = "data"
         self._flush_data()
+
+    def _sub_byte(self, byte: int) -> None:
+        if len(self._sub) < MAX_SUBNEGOTIATION:
+            self._sub.append(byte)
+        else:
+            self._overlong = True
 
     def _flush_data(self) -> None:
         if self._data:
