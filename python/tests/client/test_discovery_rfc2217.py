@@ -5,6 +5,10 @@ a link at one rate: tests/client/test_discovery_tcp.py)."""
 from __future__ import annotations
 
 import contextlib
+import os
+import signal
+import subprocess
+import sys
 from collections.abc import Iterator
 
 from nurimc import Bus
@@ -50,8 +54,34 @@ def test_discovery_over_rfc2217_finds_three_rates_once_each() -> None:
     assert not [n for n in notes if isinstance(n, FixedLink)]  # rfc2217:// is not a fixed-rate link
 
 
+@contextlib.contextmanager
+def rfc2217_sim_process() -> Iterator[str]:
+    """The same bus from the command line, `nurimc sim --tcp 0 --motor ...` (its ready line read)."""
+    motors = [arg for i, (rate, product) in MOTORS.items() for arg in ("--motor", f"{i}@{rate}:{product}")]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "nurimc.sim", "--tcp", "0", "--ids", "", *motors],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    assert proc.stdout is not None
+    try:
+        seen = []
+        for line in proc.stdout:
+            seen.append(line)
+            if line.startswith("ready: "):
+                yield "rfc2217://" + line.removeprefix("ready: ").strip()
+                break
+        else:
+            raise AssertionError(f"nurimc sim printed no ready line: {seen}")
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=60)
+
+
 def test_nurimc_scan_over_rfc2217_lists_each_controller_once() -> None:
-    with rfc2217_sim() as url:
+    with rfc2217_sim_process() as url:
         result = nurimc("--port", url, "scan", "--expect", "3")
     assert result.code == 0, result.err
     rows = [line.split("│") for line in result.out.splitlines() if line.startswith("│")]
