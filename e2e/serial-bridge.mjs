@@ -105,3 +105,108 @@ export function startPtySimulator(link, args) {
     });
   });
 }
+
+// RFC 2217 (Telnet COM-PORT-OPTION) numbers: the client's command; the server answers +100
+const IAC = 255;
+const SB = 250;
+const SE = 240;
+const WILL = 251;
+const WONT = 252;
+const DO = 253;
+const DONT = 254;
+const COM_PORT_OPTION = 44;
+const SET_BAUDRATE = 1;
+
+/** Reads the server's bytes: data (IAC IAC is one 0xFF) to `onData`, RFC 2217 answers to `onSub`. */
+export function telnetReader(onData, onSub, reply) {
+  let state = "data";
+  let sub = [];
+  return (chunk) => {
+    const data = [];
+    for (const byte of chunk) {
+      if (state === "data") {
+        if (byte === IAC) state = "iac";
+        else data.push(byte);
+      } else if (state === "iac") {
+        if (byte === IAC) {
+          data.push(IAC);
+          state = "data";
+        } else if (byte === SB) {
+          sub = [];
+          state = "sub";
+        } else if (byte >= WILL && byte <= DONT) state = byte;
+        else state = "data";
+      } else if (typeof state === "number") {
+        // the server asks to enable an option we did not ask for: refuse (COM-PORT-OPTION is ours)
+        if (byte !== COM_PORT_OPTION && (state === WILL || state === DO))
+          reply([IAC, state === WILL ? DONT : WONT, byte]);
+        state = "data";
+      } else if (state === "sub") {
+        if (byte === IAC) state = "sub-iac";
+        else sub.push(byte);
+      } else {
+        if (byte === IAC) {
+          sub.push(IAC);
+          state = "sub";
+        } else {
+          if (byte === SE) onSub(sub);
+          state = "data";
+        }
+      }
+    }
+    if (data.length) onData(data);
+  };
+}
+
+/** Node's end of the bridge over RFC 2217: one TCP connection to `nurimc sim --tcp`, the rate the
+ * page opens its port at sent as SET-BAUDRATE (answered before the port counts as open), 0xFF
+ * doubled in the data both ways. Several rates over one TCP port, as the pty gives. */
+export async function startRfc2217Bridge(p, host, port) {
+  const net = await import("node:net");
+  const state = { socket: null, waiting: null };
+  const rates = []; // every rate the server confirmed, in order
+  const send = (bytes) =>
+    new Promise((resolve, reject) => state.socket.write(Uint8Array.from(bytes), (e) => (e ? reject(e) : resolve())));
+  const read = telnetReader(
+    (data) => p.evaluate((bytes) => window.__serialData(bytes), data).catch(() => {}),
+    (sub) => {
+      if (sub[0] !== COM_PORT_OPTION || sub[1] !== SET_BAUDRATE + 100 || sub.length < 6) return;
+      const rate = ((sub[2] << 24) >>> 0) + (sub[3] << 16) + (sub[4] << 8) + sub[5];
+      state.waiting?.(rate);
+    },
+    (bytes) => send(bytes).catch(() => {}),
+  );
+  const setRate = (rate) =>
+    new Promise((resolve, reject) => {
+      const timer = setTimeout(() => reject(new Error(`RFC 2217: no answer to SET-BAUDRATE ${rate} in 10 s`)), 10000);
+      state.waiting = (got) => {
+        clearTimeout(timer);
+        state.waiting = null;
+        if (got === rate) {
+          rates.push(rate);
+          resolve();
+        } else reject(new Error(`RFC 2217: asked ${rate} bps, the server is at ${got}`));
+      };
+      const value = [rate >>> 24, (rate >>> 16) & 255, (rate >>> 8) & 255, rate & 255].flatMap((b) =>
+        b === IAC ? [IAC, IAC] : [b],
+      );
+      send([IAC, SB, COM_PORT_OPTION, SET_BAUDRATE, ...value, IAC, SE]).catch(reject);
+    });
+  await p.exposeFunction("__serialOpen", async (rate) => {
+    if (state.socket === null) {
+      state.socket = await new Promise((resolve, reject) => {
+        const socket = net.connect({ host, port }, () => resolve(socket));
+        socket.once("error", reject);
+      });
+      state.socket.setNoDelay(true);
+      state.socket.on("data", read);
+      await send([IAC, WILL, COM_PORT_OPTION]); // Telnet first: the server takes us for RFC 2217
+    }
+    await setRate(rate);
+  });
+  await p.exposeFunction("__serialWrite", (bytes) =>
+    state.socket ? send(bytes.flatMap((b) => (b === IAC ? [IAC, IAC] : [b]))) : undefined,
+  );
+  await p.addInitScript(SERIAL_BRIDGE);
+  return { rates, close: () => state.socket?.destroy() };
+}

@@ -10,9 +10,10 @@
 // says so. A browser without navigator.serial sees the explanation.
 //
 // The bridge: the page's navigator.serial is a stand-in whose bytes go to the simulator's
-// pseudo-terminal, opened from Node at the rate the page asks (a TCP link carries no rate: the
-// simulator's TCP clients all talk at one rate, so three rates need the pty). The CLI checks go
-// through the simulator's TCP server (at 57600, the rate of ID 3).
+// pseudo-terminal, opened from Node at the rate the page asks (a raw TCP link carries no rate).
+// With NURIMC_SITE_BRIDGE=rfc2217 they go to the simulator's TCP port instead, over RFC 2217:
+// the rate the page opens its port at is sent as SET-BAUDRATE (the issue's own setup). The CLI
+// checks go through the simulator's TCP server, raw (at 57600, the rate of ID 3).
 
 import assert from "node:assert/strict";
 import { execFile, spawn } from "node:child_process";
@@ -22,7 +23,7 @@ import { join } from "node:path";
 import { after, before, test } from "node:test";
 import { promisify } from "node:util";
 import { launchBrowser, NURIMC_BIN, ROOT } from "./lib.mjs";
-import { startBridge } from "./serial-bridge.mjs";
+import { startBridge, startRfc2217Bridge } from "./serial-bridge.mjs";
 
 const run = promisify(execFile);
 const SITE = join(ROOT, "site");
@@ -30,6 +31,7 @@ const DIR = mkdtempSync(join(tmpdir(), "nurimc-site-"));
 const LINK = join(DIR, "bus");
 const STATE = join(DIR, "state");
 const MOTORS = ["3@57600:mc", "7@38400:rsa", "12@250000:mc"];
+const BRIDGE = process.env.NURIMC_SITE_BRIDGE ?? "pty"; // pty or rfc2217
 let browser, server, sim, tcpPort, page, url, bridge;
 const problems = [];
 
@@ -124,7 +126,7 @@ before(async () => {
   page = await browser.newPage();
   page.setDefaultTimeout(30000);
   watch(page);
-  bridge = await startBridge(page, LINK);
+  bridge = BRIDGE === "rfc2217" ? await startRfc2217Bridge(page, "127.0.0.1", tcpPort) : await startBridge(page, LINK);
 });
 
 after(async () => {
@@ -145,6 +147,10 @@ test("the site alone finds three controllers of two lines at three rates, with p
   await page.waitForFunction(() => document.querySelector("#discover-text").dataset.found, null, { timeout: 90000 });
   assert.equal(await page.getAttribute("#discover-text", "data-found"), "3,7,12");
   assert.ok((await page.evaluate(() => window.dashboard.progressEvents)) >= 18, "progress for every rate");
+  if (BRIDGE === "rfc2217") {
+    // the rates went to the simulator's TCP port as SET-BAUDRATE, each confirmed
+    for (const rate of [57600, 38400, 250000]) assert.ok(bridge.rates.includes(rate), `SET-BAUDRATE ${rate}`);
+  }
   const subtitles = await page.$$eval(".card", (cards) => cards.map((c) => c.textContent));
   assert.match(
     subtitles.find((s) => s.includes("57600")),

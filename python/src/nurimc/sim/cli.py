@@ -30,13 +30,16 @@ def sim(
         typer.Option(help="Also serve a monitor pty at PATH (a symlink) that hears both directions, for a sniffer."),
     ] = None,
     tcp: Annotated[
-        int | None, typer.Option(help="Also serve raw TCP on this port (socket:// URLs); 0 picks one.")
+        int | None,
+        typer.Option(
+            help="Also serve TCP here: socket:// (raw, at --baud) or rfc2217:// (sets its own rate); 0 picks one."
+        ),
     ] = None,
     host: Annotated[str, typer.Option(help="Address the TCP server listens on.")] = "127.0.0.1",
     ids: Annotated[
         str | None, typer.Option(help="Controller IDs: '1' (ID 1), '0,1,2', or a range '0-31'. Default: ID 0.")
     ] = None,
-    baud: Annotated[int, typer.Option(help="Rate of the --ids controllers (and of TCP clients).")] = 9600,
+    baud: Annotated[int, typer.Option(help="Rate of the --ids controllers (and of raw TCP clients).")] = 9600,
     motor: Annotated[
         list[str] | None,
         typer.Option(
@@ -253,7 +256,7 @@ def serve(bus: SimBus, link: str | None, tcp: int | None, host: str, baud: int, 
             servers.append(server)
             address = f"{server.address[0]}:{server.address[1]}"
             ready.append(address)
-            print(f"tcp {address} (socket://{address}, clients talk at {baud} bps)")
+            print(f"tcp {address} (socket://{address} talks at {baud} bps; rfc2217://{address} sets its own rate)")
         if monitor is not None:
             watcher = bus.serve_monitor(link=monitor)
             servers.append(watcher)

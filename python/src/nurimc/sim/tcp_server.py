@@ -1,6 +1,9 @@
-"""Serve the bus over TCP (raw bytes, usable with pyserial's socket:// URL).
+"""Serve the bus over TCP: raw bytes (pyserial's socket:// URL) or RFC 2217 (rfc2217://).
 
-TCP carries no baud rate, so every client talks at the rate the server was given.
+Raw TCP carries no baud rate: a raw client talks at the rate the server was given. A client
+that starts with a Telnet negotiation speaks RFC 2217 (sim/rfc2217.py) and sets its own rate
+with SET-BAUDRATE, as a pseudo-terminal's host does with termios. Told apart per client by its
+first bytes.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import socket
 import threading
 
 from .core import HostLink, WireModel
+from .rfc2217 import Rfc2217Session, detect, escape
 
 log = logging.getLogger("nurimc.sim")
 
@@ -28,12 +32,15 @@ SEND_BUFFER = 64 * 1024
 
 
 class _TcpClient:
-    __slots__ = ("link", "peer", "pending")
+    __slots__ = ("head", "link", "peer", "pending", "raw", "session")
 
     def __init__(self, link: HostLink, peer: str) -> None:
         self.link = link
         self.pending = bytearray()
         self.peer = peer
+        self.head = bytearray()  # first bytes, held until they tell raw from RFC 2217
+        self.raw = False  # a raw client (socket://)
+        self.session: Rfc2217Session | None = None  # an RFC 2217 client (rfc2217://)
 
 
 class TcpServer:
@@ -123,7 +130,7 @@ class TcpServer:
         for sock, client in list(self.clients.items()):
             out = client.link.take()
             if out:
-                client.pending += out
+                client.pending += escape(out) if client.session is not None else out
                 self._flush(sock)
 
     def _accept(self) -> None:
@@ -161,11 +168,49 @@ class TcpServer:
         if not data:
             self._drop(sock)
             return
-        self.clients[sock].link.write(data)
+        client = self.clients[sock]
+        if client.session is None and not client.raw:
+            client.head += data
+            telnet = detect(bytes(client.head[:2]))
+            if telnet is None:
+                return  # one 0xFF so far: the next byte tells
+            data = bytes(client.head)
+            client.head.clear()
+            if telnet:
+                client.session = self._session(client)
+                log.info("tcp client %s speaks RFC 2217", client.peer)
+            else:
+                client.raw = True
+        if client.session is None:
+            client.link.write(data)
+            return
+        client.session.feed(data)
+        if client.pending:
+            self._flush(sock)
+
+    def _session(self, client: _TcpClient) -> Rfc2217Session:
+        link = client.link
+
+        def set_baud(rate: int) -> None:
+            with link.bus.lock:
+                link.baud = rate
+            log.info("tcp client %s: %d bps", client.peer, rate)
+
+        def purge() -> None:
+            link.take()  # what the bus sent it and it was not sent yet
+
+        return Rfc2217Session(
+            get_baud=lambda: link.baud,
+            set_baud=set_baud,
+            write=link.write,
+            reply=client.pending.extend,
+            purge=purge,
+        )
 
     def _flush(self, sock: socket.socket) -> None:
         client = self.clients[sock]
-        if client.pending:
+        held = client.session is not None and client.session.suspended  # FLOWCONTROL-SUSPEND
+        if client.pending and not held:
             try:
                 sent = sock.send(client.pending)
             except (BlockingIOError, InterruptedError):
