@@ -4,10 +4,12 @@ headers, and the connection limits under half-open and idle floods (uvicorn on l
 from __future__ import annotations
 
 import asyncio
+import os
 import socket
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -50,6 +52,30 @@ def test_files_and_network_are_refused_with_a_reason(url: str, reason: str) -> N
     assert refusal is not None and reason in refusal and "\n" not in refusal
     if "://" in url and "control" not in reason:
         assert "--allow-any-port" in refusal
+
+
+def test_a_link_to_a_terminal_may_be_opened_a_link_to_a_file_may_not(tmp_path: Path) -> None:
+    """`nurimc sim --link /tmp/nurimc0` (the README's quick start) or a udev alias: a name that
+    resolves to a serial terminal under /dev is a serial device; a link to anything else is not."""
+    master, slave = os.openpty()
+    try:
+        terminal = tmp_path / "nurimc0"
+        terminal.symlink_to(os.ttyname(slave))
+        assert port_refusal(str(terminal)) is None
+        secret = tmp_path / "secret"
+        secret.write_text("x")
+        to_file = tmp_path / "to-file"
+        to_file.symlink_to(secret)
+        assert "not a serial device" in (port_refusal(str(to_file)) or "")
+        dangling = tmp_path / "dangling"
+        dangling.symlink_to(tmp_path / "gone")
+        assert "not a serial device" in (port_refusal(str(dangling)) or "")
+        null = tmp_path / "null"
+        null.symlink_to("/dev/null")  # a character device, but no terminal
+        assert "not a serial device" in (port_refusal(str(null)) or "")
+    finally:
+        os.close(master)
+        os.close(slave)
 
 
 def test_the_allowing_flag_lets_the_page_open_anything() -> None:

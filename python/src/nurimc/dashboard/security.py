@@ -132,9 +132,9 @@ def port_refusal(url: str) -> str | None:
     if not sep:
         if _is_windows_port(text):
             return None
-        if not text.startswith(_DEVICE_PREFIXES) or "/../" in text + "/":
-            return f"{text!r} is not a serial device: the page opens /dev/... devices (or COMn) and sim://"
-        return None
+        if (text.startswith(_DEVICE_PREFIXES) and "/../" not in text + "/") or _links_to_serial_device(text):
+            return None
+        return f"{text!r} is not a serial device: the page opens /dev/... devices (or COMn) and sim://"
     scheme = head.lower()
     if scheme == "sim":
         from urllib.parse import parse_qs, urlsplit
@@ -151,6 +151,23 @@ def port_refusal(url: str) -> str | None:
         f"{scheme}:// ports reach files or the network as the server's user: "
         f"not from the page unless the console was started with {ALLOW_ANY_PORT}"
     )
+
+
+def _links_to_serial_device(path: str) -> bool:
+    """A name elsewhere (`nurimc sim --link /tmp/nurimc0`, a udev alias) for a terminal device:
+    the link itself must resolve to a character device under /dev that is a serial terminal."""
+    import os
+    import stat
+
+    target = os.path.realpath(path)
+    if not target.startswith(_DEVICE_PREFIXES):
+        return False
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        return False
+    name = target.removeprefix("/dev/")
+    return stat.S_ISCHR(mode) and name.startswith(("tty", "pts/", "cu.", "rfcomm", "serial/"))
 
 
 def _is_windows_port(text: str) -> bool:

@@ -430,7 +430,10 @@ async def _receive_loop(
         if isinstance(command, tune_panel.TuneCancel):  # out of band: the worker is busy with the tune
             box.put(_reply(req, tune_panel.cancel(), None))
             continue
-        refusal = config.policy.port_refusal(command.port) if isinstance(command, c.OpenBus) else None
+        # what the page may open (security.port_refusal); the port the console already holds (given on
+        # its command line) may always be reopened: that is no new reach for the page
+        opens_another = isinstance(command, c.OpenBus) and command.port != worker.port
+        refusal = config.policy.port_refusal(command.port) if opens_another else None
         if refusal is not None:  # what the page may open (security.port_refusal)
             box.put(_reply(req, None, f"open_bus: {refusal}"))
             continue
