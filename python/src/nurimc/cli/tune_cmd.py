@@ -33,6 +33,7 @@ from ..procedures.tuning import (
     check_envelope,
     make_goal,
 )
+from ..protocol.host import LIMITS
 from .common import (
     EXIT_DEVICE,
     EXIT_USAGE,
@@ -53,7 +54,7 @@ from .i18n import tr
 OVERSHOOT = Number("--max-overshoot", 0, 100, "%")
 SETTLING = Number("--max-settling", 0.01, 30, "s")
 TRAVEL = Number("--travel", 0.1, 655, "°")
-MAX_RPM = Number("--max-rpm", 1, 6553.3, "RPM")
+MAX_RPM = Number("--max-rpm", 1, LIMITS["speed_rpm_max"], "RPM")
 MAX_CURRENT = Number("--max-current", 0.1, 25.4, "A")
 TRIALS = Number("--trials", 2, 500, whole=True)
 
