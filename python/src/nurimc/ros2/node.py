@@ -202,13 +202,18 @@ class BridgeNode:
     def start(self) -> None:
         if self.graph is not None:
             self.graph.announce()
-        if self.slot is None:  # the readings: a subscription of the service's poll schedule at --rate
-            self.subscription = self.service.subscribe(
-                list(self.motors), self.rate if self.rate else AS_FAST, self._sample, client=self.service.me
-            )
+        self.subscribe()
         self.service.start()
         self._thread = threading.Thread(target=self.run, name="nurimc-ros2-bridge", daemon=True)
         self._thread.start()
+
+    def subscribe(self) -> None:
+        """The readings: a subscription of the service's poll schedule at --rate (not with
+        --broadcast-read: the node asks for those itself). `start()` does it; a test on virtual
+        time calls it and steps the service itself."""
+        if self.slot is None and self.subscription is None:
+            rate = self.rate if self.rate else AS_FAST
+            self.subscription = self.service.subscribe(list(self.motors), rate, self._sample, client=self.service.me)
 
     def stop(self) -> None:
         with self._wake:
