@@ -32,8 +32,7 @@ from ..motor import Motor, MotorState
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS, STOP_VERIFY
 from ..service.backoff import Backoff
-from ..service.core import BusService, Sample, Subscription
-from ..service.stop import Idle
+from ..service.core import COMMAND, BusService, Sample, Subscription
 from ..stepresponse import analyse
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
@@ -299,7 +298,7 @@ class BusWorker:
             error = CANCELLED
         if error is None:
             try:
-                result = self._execute(command)
+                result = self._through_service(command)
             except Interrupted:
                 error = "interrupted by the emergency stop"
             except (NurimcError, FieldRangeError, ValueError, KeyError, ArithmeticError) as problem:
@@ -310,6 +309,15 @@ class BusWorker:
         job.finish(result, error)
         if isinstance(command, c.EmergencyStop):
             self.jobs.finish_cancelled()
+
+    def _through_service(self, command: c.Command) -> Any:
+        """A page's command as a COMMAND job of the bus service (the stop and a port switch are the
+        worker's own: the stop is the service's emergency stop, a switch replaces the service)."""
+        if isinstance(command, c.EmergencyStop | c.OpenBus):
+            return self._execute(command)
+        device_id = getattr(command, "id", None)
+        commands = [device_id] if isinstance(command, c.Move | c.RunMotor | c.HoldMotor) and device_id else []
+        return self.service.run(lambda _bus: self._execute(command), priority=COMMAND, commands=commands)
 
     def _poll(self) -> None:
         """The reads that are due (the service's schedule; PortLost pauses them until the port is back)."""
@@ -676,12 +684,6 @@ class BusWorker:
                 "returns, then read back; if the motors must stop now, cut their power"
             ) from lost
 
-    def _between_read_backs(self, note: object) -> None:
-        """While the stop reads control back, the watched motors are still read at the polling
-        rate (issue 37: motors coast, and multi-turn tracking must not lose their turns)."""
-        if isinstance(note, Idle):
-            self.service.run_until(note.until)  # the polls that fall due, on the bus's clock
-
     def _latch_stop(self, lost: PortLost) -> None:
         transport = reconnecting(self.bus.transport)
         self.stop_pending = True
@@ -700,10 +702,26 @@ class BusWorker:
             raise PortLost(reconnecting(self.bus.transport).lost_text())  # type: ignore[union-attr]
         for device_id in self.known:
             self._wrote_eeprom(device_id, " after the emergency stop")
-        motors = {m.id: (self._handle(m.id).procedures, m.baudrate) for m in self.motors.values()}
-        result: dict[str, Any] = self.bus.run(
-            emergency_stop(self.bus.core, motors, ESTOP_VERIFY_SECONDS), on_note=self._between_read_backs
-        )
+        for device_id in set(self.service.known) - set(self.motors):  # forgotten here: not the service's either
+            self.service.forget_motor(device_id)
+        self.service.add_motors(self.known)
+        # the rates to broadcast at: those the console found motors at (and the present one), as before
+        self.service.rates_seen = set(self.known.values())
+        for device_id in self.motors:  # the console's handles (one per ID)
+            self.service.adopt(self._handle(device_id))
+        # the service's one emergency stop: its polls go on between read-backs (issue 37)
+        stop = self.service.emergency_stop()
+        if self.service.stop_pending:  # lost during the stop: latched once, by this worker (below)
+            self.service.stop_pending = False
+            transport = reconnecting(self.bus.transport)
+            raise PortLost(transport.lost_text() if transport is not None else "the port is lost")
+        result: dict[str, Any] = {
+            "rates": list(stop.rates),
+            "control": stop.control,
+            "stopped": list(stop.stopped),
+            "not_confirmed": list(stop.not_confirmed),
+            "ok": stop.ok,
+        }
         if latched:
             self.stop_pending = False
             transport = reconnecting(self.bus.transport)

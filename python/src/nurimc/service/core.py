@@ -526,10 +526,11 @@ class BusService:
         with self._cond:
             if self._closed:
                 return False
-            job = heapq.heappop(self._queue) if self._queue else None
-        if self.outage.returned():
+        if self.outage.returned():  # before taking a job: a job taken here would be lost
             self._after_return()
             return True
+        with self._cond:
+            job = heapq.heappop(self._queue) if self._queue else None
         if job is not None:
             self._carry_out(job)
             return True
