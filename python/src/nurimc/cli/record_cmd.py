@@ -10,8 +10,7 @@ from typing import Any
 import typer
 
 from ..budgets import READ_LIMITS_HELP
-from ..errors import NurimcError, PortLost
-from ..transport.outage import OutageGuard
+from ..errors import NurimcError
 from .common import EXIT_DEVICE, EXIT_USAGE, Number, fail, options, out, say_line
 from .i18n import tr
 from .ros2_cmd import RATE, SECONDS
@@ -74,6 +73,8 @@ def record(
     Example: nurimc --port /dev/ttyUSB0 --baud 115200 record --mcap run.mcap --ids 1,2 --seconds 10
     """
     o = options(ctx)
+    from ..service.core import BusService
+    from ..service.readings import ServiceReadings
     from ..service.share import AttachedBus
     from .attach import SharedReadings
     from .ros2_cmd import motor_ids, need_mcap, open_traced_bus, wait_for_signal
@@ -85,7 +86,6 @@ def record(
         counts = convert_to_mcap(source, mcap_path)
         out.print(tr(f"wrote {mcap_path}: {counts} frames from {source}"), soft_wrap=True, markup=False)
         return
-    from ..procedures.group import read_states
     from ..recording.mcap_file import FRAMES_TOPIC, McapRecorder
     from ..ros2.bridge import Bridge
     from ..ros2.names import NameError_, topic
@@ -109,13 +109,13 @@ def record(
     stop = threading.Event()
     recorder.on_failure = lambda _why: stop.set()  # disk full: the recording ends at once (recorder.failed)
     port_error: list[str] = []
+    service: BusService | None = None
     try:
         motor_list = motor_ids(o, ids, bus)
         try:
             bridge = Bridge(motor_list, make_joint_names(joint_names, motor_list))
         except ValueError as error:
             fail(str(error))
-        procedures = [bus.motor(i, o.product if o.product_given else None).procedures for i in motor_list]
         out.print(
             tr(
                 f"ready: recording {state_topic} and {FRAMES_TOPIC} to {mcap_path} "
@@ -125,32 +125,39 @@ def record(
             markup=False,
         )
 
-        shared = SharedReadings(bus, motor_list, rate or 50.0) if isinstance(bus, AttachedBus) else None
+        # the readings come from a bus service's poll schedule: the holder's when attached (no reads of
+        # our own), else a service of our own on this bus (docs/service.md); the loop only takes them
+        readings: SharedReadings | ServiceReadings
+        if isinstance(bus, AttachedBus):
+            readings = SharedReadings(bus, motor_list, rate or 50.0)
+        else:
+            product = o.product if o.product_given else "mc"
+            service = BusService(bus, say=say_line, product=product, program="nurimc record").start()
+            readings = ServiceReadings(service, motor_list, rate)
+
+        def lost_text() -> str:
+            transport = service.outage.transport if service is not None else None
+            return transport.lost_text() if transport is not None else "the port is lost"
 
         def loop() -> None:
             period = 1.0 / rate if rate else 0.0
-            next_read = time.monotonic()
-            outage = OutageGuard(bus.transport, say_line)  # lost and back: one line each on stderr
             lost_since: float | None = None
             uncertain: set[int] = set()  # joints whose continuous position may be off by whole turns
             while not stop.is_set():
-                try:
-                    if shared is not None:  # attached: the holder's shared readings, no reads of our own
-                        bridge.readings(shared.take(max(2 * period, 0.1)))
-                    else:
-                        bridge.readings(bus.run(read_states(procedures)))
-                    lost_since = None
-                except PortLost as error:  # said once; recording resumes with fresh readings when it is back
+                if service is not None and service.outage.down:  # said once by the service; polls pause
                     lost_since = time.monotonic() if lost_since is None else lost_since
                     if time.monotonic() - lost_since >= port_wait:  # gone for good: end, then say so
-                        port_error.append(f"{error} (waited {port_wait:g} s, --port-wait)")
+                        port_error.append(f"{lost_text()} (waited {port_wait:g} s, --port-wait)")
                         stop.set()
                         return
-                    outage.wait_up(min(0.5, port_wait))
-                    if stop.is_set() and outage.down:  # ended (Ctrl-C, --seconds) while the port is lost
-                        port_error.append(str(error))
+                    service.outage.wait_up(min(0.5, port_wait))
+                    if stop.is_set() and service.outage.down:  # ended (Ctrl-C, --seconds) while the port is lost
+                        port_error.append(lost_text())
                     continue
-                except NurimcError as error:  # the port itself failed: end the recording, then say so
+                lost_since = None
+                try:
+                    bridge.readings(readings.take(max(2 * period, 0.1)))
+                except NurimcError as error:  # the holder ended: end the recording, then say so
                     port_error.append(str(error))
                     stop.set()
                     return
@@ -159,10 +166,6 @@ def record(
                 if message is not None:
                     recorder.joint_state(state_topic, message)
                 note_uncertain(recorder, bridge, uncertain, now_ns, o.port or "")
-                if shared is not None:
-                    continue  # paced by the holder's readings
-                next_read = max(next_read + period, time.monotonic())
-                stop.wait(next_read - time.monotonic())
 
         worker = threading.Thread(target=loop, name="nurimc-record", daemon=True)
         worker.start()
@@ -170,6 +173,8 @@ def record(
         stop.set()
         worker.join(timeout=5)
     finally:
+        if service is not None:
+            service.close()
         bus.close()
         recorder.close()
     if recorder.failed:  # the disk (full, gone): one line, exit 1

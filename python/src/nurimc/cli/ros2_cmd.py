@@ -327,17 +327,9 @@ def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:
 
     port = o.port or os.environ.get("NURIMC_PORT", "")
     motors = {i: bus.baudrate for i in motor_list}
-    holding = hold_port(bus, port, motors, "nurimc ros2", node._log, reported)
-
-    def offer(results: dict[int, Any]) -> None:  # the bridge's readings serve attached readers too
-        for state in results.values():
-            if not isinstance(state, Exception):
-                holding.service.offer(state)
-
-    node.on_states.append(offer)
-    node.on_stop.append(
-        lambda result: holding.service.announce({"type": "estop", "from": "nurimc ros2", **result.as_dict()})
-    )
+    # the bridge is a client of its own bus service (ros2/node.py): that service is the one served,
+    # so attached readers share its polls and its estop is everyone's (told by the service itself)
+    holding = hold_port(bus, port, motors, "nurimc ros2", node._log, reported, service=node.service)
     return holding
 
 

@@ -432,8 +432,9 @@ async def _receive_loop(
             continue
         # what the page may open (security.port_refusal); the port the console already holds (given on
         # its command line) may always be reopened: that is no new reach for the page
-        opens_another = isinstance(command, c.OpenBus) and command.port != worker.port
-        refusal = config.policy.port_refusal(command.port) if opens_another else None
+        refusal = None
+        if isinstance(command, c.OpenBus) and command.port != worker.port:
+            refusal = config.policy.port_refusal(command.port)
         if refusal is not None:  # what the page may open (security.port_refusal)
             box.put(_reply(req, None, f"open_bus: {refusal}"))
             continue

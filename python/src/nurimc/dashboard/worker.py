@@ -3,7 +3,10 @@
 RS485 is half-duplex and the Bus runs one procedure at a time, so everything goes through this
 thread. The scheduler (scheduler.py) decides which page's command is next (the emergency stop
 first, then the pages in turn); this module carries each out (the handlers) and, between
-commands, reads the watched motors' states as fast as the wire allows (capped at POLL_HZ).
+commands, reads the watched motors' states as fast as the wire allows (capped at POLL_HZ). The
+reads are a subscription of a bus service's poll schedule (service/core.py, docs/service.md):
+this thread steps that service between commands and while a stop reads back, and the service
+decides which motor is due (a motor that stops answering is read less often).
 
 Port loss (a bus opened with reconnect, docs/dashboard.md "Port lost"): polling pauses, every
 command fails at once with the reason, an emergency stop is latched ("stop pending: port
@@ -22,16 +25,15 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..drivers.sync import Bus
-from ..errors import ControllerBusy, NurimcError, PortError, PortLost
+from ..errors import NurimcError, PortError, PortLost
 from ..procedures import config
 from ..procedures.discovery import Found, Progress, discover
 from ..procedures.motor import Motor, MotorState
 from ..procedures.stepresponse import analyse
-from ..procedures.stop import Idle
 from ..protocol import BROADCAST_ID, FieldRangeError, SetControl
 from ..protocol.host import LIMITS, STOP_VERIFY
 from ..service.backoff import Backoff
-from ..service.core import Interrupted
+from ..service.core import COMMAND, BusService, Interrupted, Sample, Subscription
 from ..transport.reconnect import PortEvent, reconnecting
 from . import commands as c
 from . import tune_panel
@@ -76,14 +78,15 @@ class BusWorker:
         self.product = product
         self.publish = publish  # called from any thread: progress, errors, estop and port notices
         self.motors: dict[int, KnownMotor] = {}  # kept for every page, new tabs and reloads
-        self.watched: tuple[int, ...] = ()
+        self._watched: tuple[int, ...] = ()
+        self._subscription: Subscription | None = None
+        self.service = self._new_service()
         self.jobs = Scheduler()
         self._handles: dict[int, Motor] = {}
         self._stopping = False
         self._samples: list[list[float]] = []
         self._samples_lock = threading.Lock()
         self._last_error: dict[int, float] = {}
-        self._next_stop_poll = 0.0
         self.silent = Backoff()  # motors that stopped answering: read less often, the others keep their rate
         self._busy_why: dict[int, str] = {}  # motor -> what last wrote its EEPROM (the window itself is BusCore's)
         self.clock_origin = time.monotonic()
@@ -97,6 +100,29 @@ class BusWorker:
         self.commanded: set[int] = set()
         self._watch_port()
         self._thread = threading.Thread(target=self._loop, name="nurimc-dashboard-bus", daemon=True)
+
+    def _new_service(self) -> BusService:
+        """The bus service of this console's bus, stepped by this thread (no thread of its own), on the bus's clock."""
+        return BusService(
+            self.bus, say=lambda _text: None, product=self.product, program="nurimc dashboard", say_port=False
+        )
+
+    @property
+    def watched(self) -> tuple[int, ...]:
+        """The motors read between commands: a subscription of the service's polls at POLL_HZ."""
+        return self._watched
+
+    @watched.setter
+    def watched(self, ids: tuple[int, ...]) -> None:
+        self._watched = tuple(ids)
+        if self._subscription is not None:
+            self._subscription.cancel()
+            self._subscription = None
+        if ids:
+            self.service.add_motors({i: self.motors[i].baudrate for i in ids if i in self.motors})
+            for device_id in ids:  # one handle per ID: the multi-turn tracker's history is the console's
+                self.service.adopt(self._handle(device_id))
+            self._subscription = self.service.subscribe(ids, POLL_HZ, self._polled)
 
     @property
     def generation(self) -> int:
@@ -130,6 +156,7 @@ class BusWorker:
             self._stopping = True
             self.jobs.cond.notify_all()
         self._thread.join(timeout=5)
+        self.service.close()
         transport = reconnecting(self.bus.transport)
         if transport is not None:
             transport.unwatch(self._port_event)
@@ -267,7 +294,7 @@ class BusWorker:
             error = CANCELLED
         if error is None:
             try:
-                result = self._execute(command)
+                result = self._through_service(command)
             except Interrupted:
                 error = "interrupted by the emergency stop"
             except (NurimcError, FieldRangeError, ValueError, KeyError, ArithmeticError) as problem:
@@ -279,28 +306,42 @@ class BusWorker:
         if isinstance(command, c.EmergencyStop):
             self.jobs.finish_cancelled()
 
+    def _through_service(self, command: c.Command) -> Any:
+        """A page's command as a COMMAND job of the bus service (the stop and a port switch are the
+        worker's own: the stop is the service's emergency stop, a switch replaces the service)."""
+        if isinstance(command, c.EmergencyStop | c.OpenBus):
+            return self._execute(command)
+        device_id = getattr(command, "id", None)
+        commands = [device_id] if isinstance(command, c.Move | c.RunMotor | c.HoldMotor) and device_id else []
+        return self.service.run(lambda _bus: self._execute(command), priority=COMMAND, commands=commands)
+
     def _poll(self) -> None:
-        for device_id in self.watched:
-            # a motor that stopped answering is read less often (service/backoff.py): the others keep their rate
-            if not self.silent.due(device_id, self.bus.clock.now()):
-                continue
-            try:
-                self._sample(device_id)
-            except PortLost:  # said once, as a `port` event; polling pauses until it is back
-                return
-            except NurimcError as error:
-                if self.silent.failed(device_id, self.bus.clock.now()):
-                    self.publish({"type": "motor_silent", "id": device_id})
-                now = time.monotonic()
-                why = self._busy_why.get(device_id, "")
-                if now < self.bus.core.busy_until(device_id) + BUSY_MARGIN or isinstance(error, ControllerBusy):
-                    text = f"ID {device_id} is busy writing its settings{why}; readings resume in a moment"
-                    kind = "busy"
-                else:
-                    text, kind = str(error), "error"
-                if now - self._last_error.get(device_id, 0.0) >= ERROR_REPEAT:
-                    self._last_error[device_id] = now
-                    self.publish({"type": "motor_error", "id": device_id, "message": text, "kind": kind})
+        """The reads that are due (the service's schedule; PortLost pauses them until the port is back)."""
+        self.service.step()
+
+    def _polled(self, sample: Sample) -> None:
+        """A reading from the service's polls: plotted, or its failure said (at most every ERROR_REPEAT s)."""
+        device_id = sample.id
+        if sample.state is not None:
+            if self.silent.answered(device_id) is not None:
+                self.publish({"type": "motor_answering", "id": device_id})
+            self._plot(sample.state)
+            return
+        # a motor that stopped answering is read less often by the service (service/backoff.py): said once
+        if self.silent.failed(device_id, self.bus.clock.now()):
+            self.publish({"type": "motor_silent", "id": device_id})
+        now = time.monotonic()
+        why = self._busy_why.get(device_id, "")
+        error = sample.error or f"ID {device_id} did not answer"
+        busy = "busy writing its settings" in error  # a ControllerBusy's text
+        if now < self.bus.core.busy_until(device_id) + BUSY_MARGIN or busy:
+            text = f"ID {device_id} is busy writing its settings{why}; readings resume in a moment"
+            kind = "busy"
+        else:
+            text, kind = error, "error"
+        if now - self._last_error.get(device_id, 0.0) >= ERROR_REPEAT:
+            self._last_error[device_id] = now
+            self.publish({"type": "motor_error", "id": device_id, "message": text, "kind": kind})
 
     def _sample(self, device_id: int) -> MotorState:
         """Read one motor's state and queue it for the plots."""
@@ -332,6 +373,7 @@ class BusWorker:
             # the product line discovery found for the ID (nurimc.procedures.products) beats the default "mc"
             found = self.bus.core.products.get(device_id) if self.product == "mc" else None
             self._handles[device_id] = self.bus.motor(device_id, found or self.product)
+            self.service.adopt(self._handles[device_id])  # the service's polls read through it too
         return self._handles[device_id]
 
     def _wrote_eeprom(self, device_id: int, why: str) -> None:
@@ -445,6 +487,7 @@ class BusWorker:
         old = self.motors.get(f.id)
         if old is not None and old.baudrate != f.baudrate:
             self._handles.pop(f.id, None)
+            self.service.forget_motor(f.id)
         firmware = f.firmware if f.firmware is not None else (old.firmware if old else None)
         self.motors[f.id] = KnownMotor(f.id, f.baudrate, firmware)
 
@@ -517,6 +560,7 @@ class BusWorker:
         self.bus.run(config.change_id(self.bus.core, device_id, new_id))  # refuses a taken ID, verifies
         old = self.motors.pop(device_id, KnownMotor(device_id, self.bus.baudrate, None))
         self._handles.pop(device_id, None)
+        self.service.forget_motor(device_id)
         del motor
         self.motors[new_id] = KnownMotor(new_id, old.baudrate, old.firmware)
         self._forget_watch(device_id, new_id)
@@ -537,6 +581,7 @@ class BusWorker:
         self.bus.run(config.factory_reset(self.bus.core, device_id, confirm=True))
         self.motors.pop(device_id, None)
         self._handles.pop(device_id, None)
+        self.service.forget_motor(device_id)
         self._forget_watch(device_id, None)
         self.publish({"type": "motors", "motors": self.motor_list(), "generation": self.generation})
         return {"id": device_id, "note": "it comes back as ID 0 at 9600 bps: discover again at 9600"}
@@ -568,9 +613,12 @@ class BusWorker:
         old_transport = reconnecting(old.transport)
         if old_transport is not None:
             old_transport.unwatch(self._port_event)
+        self.watched = ()
+        self.service.close()  # the service is of one bus: a new one on the new port
         self.bus, self.port = new, port
         old.close()
         self._handles.clear()
+        self.service = self._new_service()
         self._watch_port()
         result: dict[str, Any] = {"port": port, "baudrate": rate, **left}
         if self.stop_pending:  # asked for the motors of the lost port: on this one, as far as it reaches
@@ -632,22 +680,6 @@ class BusWorker:
                 "returns, then read back; if the motors must stop now, cut their power"
             ) from lost
 
-    def _between_read_backs(self, note: object) -> None:
-        """While the stop reads control back, the watched motors are still read at the polling
-        rate (issue 37: motors coast, and multi-turn tracking must not lose their turns)."""
-        if not isinstance(note, Idle):
-            return
-        clock = self.bus.clock
-        while True:
-            now = clock.now()
-            if now >= self._next_stop_poll:
-                self._next_stop_poll = now + 1.0 / POLL_HZ
-                self._poll()
-                now = clock.now()
-            if now >= note.until:
-                return
-            clock.sleep(min(self._next_stop_poll, note.until) - now)
-
     def _latch_stop(self, lost: PortLost) -> None:
         transport = reconnecting(self.bus.transport)
         self.stop_pending = True
@@ -666,10 +698,26 @@ class BusWorker:
             raise PortLost(reconnecting(self.bus.transport).lost_text())  # type: ignore[union-attr]
         for device_id in self.known:
             self._wrote_eeprom(device_id, " after the emergency stop")
-        motors = {m.id: (self._handle(m.id).procedures, m.baudrate) for m in self.motors.values()}
-        result: dict[str, Any] = self.bus.run(
-            emergency_stop(self.bus.core, motors, ESTOP_VERIFY_SECONDS), on_note=self._between_read_backs
-        )
+        for device_id in set(self.service.known) - set(self.motors):  # forgotten here: not the service's either
+            self.service.forget_motor(device_id)
+        self.service.add_motors(self.known)
+        # the rates to broadcast at: those the console found motors at (and the present one), as before
+        self.service.rates_seen = set(self.known.values())
+        for device_id in self.motors:  # the console's handles (one per ID)
+            self.service.adopt(self._handle(device_id))
+        # the service's one emergency stop: its polls go on between read-backs (issue 37)
+        stop = self.service.emergency_stop()
+        if self.service.stop_pending:  # lost during the stop: latched once, by this worker (below)
+            self.service.stop_pending = False
+            transport = reconnecting(self.bus.transport)
+            raise PortLost(transport.lost_text() if transport is not None else "the port is lost")
+        result: dict[str, Any] = {
+            "rates": list(stop.rates),
+            "control": stop.control,
+            "stopped": list(stop.stopped),
+            "not_confirmed": list(stop.not_confirmed),
+            "ok": stop.ok,
+        }
         if latched:
             self.stop_pending = False
             transport = reconnecting(self.bus.transport)

@@ -1,11 +1,16 @@
-"""The bridge on a bus and a DDS participant: one thread owns the bus, DDS callbacks only queue.
+"""The bridge on a bus service and a DDS participant: the service owns the bus, DDS callbacks only queue.
 
-DDS delivers commands on Cyclone's own threads; they are queued here and the bus thread
-carries them out between readings, so a command waits at most for the reading under way.
-An estop drops every command queued before it and goes first. Commands coalesce (coalesce.py):
-the latest motion command replaces one still queued, so a flood costs no backlog; a reading or
-/diagnostics that is due goes before queued commands (never before an estop), so a flood does not
-starve joint_states either.
+The bridge is a client of one BusService (service/core.py, docs/service.md): its readings are a
+subscription of the service's poll schedule at --rate (0: as fast as the bus allows), its
+commands are jobs of COMMAND priority, its estop is the service's one emergency stop. DDS delivers
+commands on Cyclone's own threads; they are queued here and the node's thread hands them to the
+service one at a time, so the service reads between two commands and a command waits at most for
+the reading under way. An estop drops every command queued before it and goes first. Commands
+coalesce (coalesce.py): the latest motion command replaces one still queued (latest wins per joint)
+before it is submitted, so a flood costs no backlog; a round of readings or /diagnostics that is
+due is published before queued commands (never before an estop), so a flood does not starve
+joint_states either. With --broadcast-read the node asks for its broadcast reads itself, as READ
+jobs of the service, at --rate.
 """
 
 from __future__ import annotations
@@ -21,10 +26,12 @@ from ..drivers.sync import Bus
 from ..errors import NurimcError, PortLost
 from ..procedures.group import read_states, read_states_broadcast, stagger
 from ..procedures.motor import Motor, MotorState
-from ..procedures.stop import StopResult, emergency_stop
+from ..procedures.stop import StopResult
 from ..protocol import FieldRangeError
 from ..protocol.host import STOP_VERIFY
 from ..service.backoff import Backoff, read_state_once
+from ..service.core import COMMAND, READ, BusService, Sample, Subscription
+from ..service.readings import AS_FAST
 from ..transport.outage import OutageGuard
 from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
@@ -63,6 +70,7 @@ class BridgeNode:
         sink: StateSink | None = None,
         log: Callable[[str], None] | None = None,
         node_name: str | None = "nurimc",
+        service: BusService | None = None,
     ) -> None:
         if rate < 0 or not math.isfinite(rate):
             raise ValueError(f"--rate {rate}: give readings per second > 0 (0 = as fast as the bus allows)")
@@ -81,6 +89,16 @@ class BridgeNode:
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
         self._logged: dict[str, float] = {}
         self.outage = OutageGuard(bus.transport, self._log)  # port lost and back (docs/ros2.md, "Port lost")
+        #: the bus service the bridge is a client of (its own unless given: a holder's, a test's clock)
+        self.own_service = service is None
+        self.service = service or BusService(bus, say=self._log, product=product, program="nurimc ros2", say_port=False)
+        for motor in self.motors.values():  # one handle per ID: the multi-turn tracker's history is the bridge's
+            self.service.adopt(motor)
+        self.service.listen(self._service_event)
+        self.rate = rate
+        self.subscription: Subscription | None = None
+        self._round: dict[int, MotorState | Exception] = {}  # readings of this round so far (from the service)
+        self._round_since: float | None = None  # monotonic time of the round's first reading
         self.joint_states_topic = topic(namespace, "joint_states")
         self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
         self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
@@ -152,11 +170,11 @@ class BridgeNode:
             )
         procedures = [m.procedures for m in self.motors.values()]
         if self.broadcast_read:
-            self.slot = self.bus.run(stagger(procedures, self.bus.baudrate))
+            self.slot = self.service.run(stagger(procedures, self.bus.baudrate), priority=COMMAND)
         attempt = 1
         while True:
             try:
-                results = self.bus.run(read_states(procedures))
+                results = self.service.run(read_states(procedures), priority=READ)
             except NurimcError as port_error:  # the port itself: every motor gets the error
                 results = {device_id: port_error for device_id in self.motors}
             if not all(isinstance(r, Exception) for r in results.values()):
@@ -184,8 +202,18 @@ class BridgeNode:
     def start(self) -> None:
         if self.graph is not None:
             self.graph.announce()
+        self.subscribe()
+        self.service.start()
         self._thread = threading.Thread(target=self.run, name="nurimc-ros2-bridge", daemon=True)
         self._thread.start()
+
+    def subscribe(self) -> None:
+        """The readings: a subscription of the service's poll schedule at --rate (not with
+        --broadcast-read: the node asks for those itself). `start()` does it; a test on virtual
+        time calls it and steps the service itself."""
+        if self.slot is None and self.subscription is None:
+            rate = self.rate if self.rate else AS_FAST
+            self.subscription = self.service.subscribe(list(self.motors), rate, self._sample, client=self.service.me)
 
     def stop(self) -> None:
         with self._wake:
@@ -193,6 +221,11 @@ class BridgeNode:
             self._wake.notify()
         if self._thread is not None:
             self._thread.join(timeout=10)
+        if self.subscription is not None:
+            self.subscription.cancel()
+            self.subscription = None
+        if self.own_service:
+            self.service.close()
 
     def close(self) -> None:
         self.stop()
@@ -210,8 +243,47 @@ class BridgeNode:
         finally:
             self.done.set()
 
+    # -- the service's thread: readings and events ------------------------------------------
+    def _sample(self, sample: Sample) -> None:
+        """A reading from the service's polls: part of the round the node publishes next."""
+        value: MotorState | Exception = (
+            sample.state if sample.state is not None else NurimcError(sample.error or f"ID {sample.id} did not answer")
+        )
+        with self._wake:
+            if self._round_since is None:
+                self._round_since = time.monotonic()
+            self._round[sample.id] = value
+            if len(self._round) >= len(self.motors):
+                self._wake.notify()
+
+    def _service_event(self, event: dict[str, Any]) -> None:
+        """A motor that stops answering is read less often by the service (service/backoff.py): said once each way."""
+        kind = event.get("type")
+        if kind == "no_answer" and event.get("id") in self.motors:
+            self._log(f"ID {event['id']}: no answer; read less often (at most 1 s apart) until it answers")
+        elif kind == "answering" and event.get("id") in self.motors:
+            self._log(f"ID {event['id']} answers again")
+
+    def _round_due(self, now: float) -> float:
+        """When the round of readings gathered so far is published: at once when every motor is in
+        it, else (a motor backed off, a read under way) a period after its first reading."""
+        if self._round_since is None:
+            return math.inf
+        if len(self._round) >= len(self.motors):
+            return now
+        return self._round_since + max(self.period, 0.02)
+
+    def _take_round(self) -> dict[int, MotorState | Exception]:
+        with self._wake:
+            results, self._round, self._round_since = self._round, {}, None
+        for device_id in self.motors:
+            if device_id not in results:
+                results[device_id] = NurimcError(f"ID {device_id} is not answering; read again in a moment")
+        return results
+
+    # -- the node's thread ----------------------------------------------------------------------
     def _loop(self) -> None:
-        next_read = time.monotonic()
+        next_read = time.monotonic()  # broadcast reads only: the node asks for them itself
         next_diagnostics = next_read
         just_read = False
         while True:
@@ -219,9 +291,15 @@ class BridgeNode:
                 if self._stopping:
                     break
                 now = time.monotonic()
-                wake_at = min(next_read, next_diagnostics, self.bridge.next_expiry() or math.inf)
-                # an estop first; then a reading, diagnostics or timeout that is due; then commands
-                # (--rate 0 reads all the time: a reading and a command take turns)
+                round_at = self._round_due(now)
+                wake_at = min(
+                    next_read if self.slot is not None else math.inf,
+                    round_at,
+                    next_diagnostics,
+                    self.bridge.next_expiry() or math.inf,
+                )
+                # an estop first; then a round of readings, diagnostics or a timeout that is due; then
+                # commands (--rate 0 reads all the time: a round and a command take turns)
                 first = self._events.has_estop() or wake_at > now or (not self.period and just_read)
                 event = self._events.pop() if first else None
                 just_read = False
@@ -229,13 +307,16 @@ class BridgeNode:
                     self._wake.wait(wake_at - now)
                     continue
             now = time.monotonic()
-            if self.outage.returned():  # before anything else: stops owed, fresh states
+            if self.outage.returned():  # before anything else: stops owed (the service reads every motor first)
                 self._resume()
             if event is not None:
                 self._handle(*event, now)
                 continue
             self._carry_out(self.bridge.expire(now))
-            if now >= next_read:
+            if round_at <= now:
+                self.publish(self._take_round())
+                just_read = True
+            if self.slot is not None and now >= next_read:
                 self.read_and_publish()
                 just_read = True
                 next_read = max(next_read + self.period, time.monotonic()) if self.period else time.monotonic()
@@ -257,7 +338,8 @@ class BridgeNode:
         next motion reads it first; every motor is read before anything else is sent."""
         self.outage.take_stops()
         self.bus.core.control_released.clear()
-        self.read_and_publish()
+        if self.slot is not None:  # else the service reads every subscribed motor first on the return
+            self.read_and_publish()
 
     def _handle(self, kind: str, value: Any, now: float) -> None:
         try:
@@ -288,20 +370,26 @@ class BridgeNode:
                 self._report(f"action{getattr(action, 'id', '')}", f"error: {action}: {error}")
 
     def _perform(self, action: Action) -> None:
-        if isinstance(action, MoveTo):
-            self.motors[action.id].move_to(action.degrees, rpm=action.rpm)
-        elif isinstance(action, Run):
-            self.motors[action.id].run(action.rpm, action.ramp)
-        elif isinstance(action, Hold):
-            self.motors[action.id].hold()
-        elif isinstance(action, ReleaseAll):
+        """A command is a job of the service (COMMAND priority; it clears that motor's stop latch)."""
+        if isinstance(action, ReleaseAll):
             self.release_all(action.ids)
+            return
+        motor = self.motors[action.id]
+        if isinstance(action, MoveTo):
+            self.service.run(lambda _bus: motor.move_to(action.degrees, rpm=action.rpm), COMMAND, [action.id])
+        elif isinstance(action, Run):
+            self.service.run(lambda _bus: motor.run(action.rpm, action.ramp), COMMAND, [action.id])
+        elif isinstance(action, Hold):
+            self.service.run(lambda _bus: motor.hold(), COMMAND, [action.id])
 
     def release_all(self, ids: tuple[int, ...]) -> StopResult:
-        """The one emergency stop (nurimc.procedures.stop, docs/service.md): control off by broadcast,
-        then to each motor by ID, read back until each says off or spec/host.json's window runs out."""
-        motors = {i: (self.motors[i].procedures, self.bus.baudrate) for i in ids}
-        result = self.bus.run(emergency_stop(self.bus.core, motors))
+        """The service's one emergency stop (nurimc.procedures.stop, docs/service.md): control off by
+        broadcast, then to each motor it knows (the bridge's `ids` among them) by ID, read back until
+        each says off or spec/host.json's window runs out; every program on the service is told."""
+        self.service.add_motors({i: self.service.known.get(i, self.bus.baudrate) for i in ids})
+        result = self.service.emergency_stop()
+        if self.service.stop_pending:  # the port is lost: control off goes first on its return
+            raise PortLost("the port is lost; the stop is sent first when it returns")
         if result.not_confirmed:
             ids_text = ", ".join(map(str, result.not_confirmed))
             self._log(f"estop: ID {ids_text} did not confirm control off within {STOP_VERIFY} s")
@@ -312,10 +400,11 @@ class BridgeNode:
         return result
 
     def read_states(self) -> dict[int, MotorState | Exception]:
+        """One round read by the node itself (--broadcast-read: as a READ job of the service)."""
         procedures = [m.procedures for m in self.motors.values()]
         if self.slot is not None:
             try:
-                return dict(self.bus.run(read_states_broadcast(procedures, self.slot)))
+                return dict(self.service.run(read_states_broadcast(procedures, self.slot), priority=READ))
             except NurimcError as error:
                 return {m.id: error for m in procedures}
         # a motor that stopped answering is read less often (service/backoff.py): the others keep their rate
@@ -345,6 +434,10 @@ class BridgeNode:
             results = self.read_states()
         except NurimcError as error:  # the port itself (adapter unplugged...): every motor gets the error
             results = {device_id: error for device_id in self.motors}
+        return self.publish(results)
+
+    def publish(self, results: dict[int, MotorState | Exception]) -> msgs.JointState | None:
+        """A round of readings: joint_states, then the hooks (ros2_control topics, the base)."""
         self.bridge.readings(results)
         for joint in self.bridge.joints:
             if joint.error and not self.outage.down:  # a lost port is said once, by the outage guard

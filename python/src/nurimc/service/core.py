@@ -288,6 +288,11 @@ class BusService:
                 self.known[device_id] = rate
                 self.rates_seen.add(rate)
 
+    def adopt(self, motor: Motor) -> None:
+        """Use the program's own handle of a motor (one handle per ID: its multi-turn tracker's history)."""
+        with self._cond:
+            self._handles[motor.id] = motor
+
     def forget_motor(self, device_id: int) -> None:
         with self._cond:
             self.known.pop(device_id, None)
@@ -437,9 +442,10 @@ class BusService:
         for job in dropped:
             if job.priority != ESTOP:
                 job.future.set_exception(Cancelled("cancelled: an emergency stop came after it was asked"))
-        return self.run(self._stop_work, priority=ESTOP, client=client)
+        who = (client or self.me).program
+        return self.run(lambda bus: self._stop_work(bus, who), priority=ESTOP, client=client)
 
-    def _stop_work(self, bus: Bus) -> StopResult:
+    def _stop_work(self, bus: Bus, who: str | None = None) -> StopResult:
         self._stop_asked.clear()
         if self.motor_source is not None:  # the holder program's own list (the console's discovered motors)
             self.add_motors(self.motor_source())
@@ -462,7 +468,8 @@ class BusService:
         with self._cond:
             self.latched |= set(known)
             result = replace(result, latched=tuple(sorted(self.latched)))
-        self._tell({"type": "estop", "generation": self.generation, **result.as_dict()})
+        said = {"from": who} if who else {}  # which program asked (a holder does not report its own stop twice)
+        self._tell({"type": "estop", "generation": self.generation, **said, **result.as_dict()})
         return result
 
     def _handle_only(self, device_id: int) -> Motor:
@@ -519,10 +526,11 @@ class BusService:
         with self._cond:
             if self._closed:
                 return False
-            job = heapq.heappop(self._queue) if self._queue else None
-        if self.outage.returned():
+        if self.outage.returned():  # before taking a job: a job taken here would be lost
             self._after_return()
             return True
+        with self._cond:
+            job = heapq.heappop(self._queue) if self._queue else None
         if job is not None:
             self._carry_out(job)
             return True
@@ -685,6 +693,8 @@ class BusService:
     def close(self) -> None:
         """End the service: waiting jobs fail with ServiceClosed; the bus is left open (its owner closes it)."""
         with self._cond:
+            if self._closed:  # closed already (by its holder and by the program using it)
+                return
             self._closed = True
             waiting, self._queue = self._queue, []
             self._cond.notify_all()

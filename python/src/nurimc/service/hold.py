@@ -32,10 +32,15 @@ def hold_port(
     say: Callable[[str], None],
     on_event: Callable[[dict[str, Any]], None] | None = None,
     motor_source: Callable[[], Mapping[int, int]] | None = None,
+    service: BusService | None = None,
 ) -> Holding:
     """Start a BusService on `bus` (its own thread) and serve it to other nurimc programs.
-    `motor_source`: the program's own list of motors, read at each emergency stop."""
-    service = BusService(bus, motors=motors, say=say, program=program, say_port=False)  # the program says them
+    `motor_source`: the program's own list of motors, read at each emergency stop. `service`: the
+    program's own service (it is a client of it already: the bridge), served instead of a new one."""
+    if service is None:
+        service = BusService(bus, motors=motors, say=say, program=program, say_port=False)  # the program says them
+    else:
+        service.add_motors(motors)
     service.motor_source = motor_source
     if on_event is not None:
         service.listen(on_event)
