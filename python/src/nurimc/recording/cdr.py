@@ -86,7 +86,7 @@ class Field:
 
 def _sections(ros_type: str) -> dict[str, str]:
     """The definition of `ros_type` split into the text of each type it names (itself first)."""
-    from ..ros2.msgs import definition  # the ros2msg texts; no DDS needed to read them
+    from ..ros2.definitions import definition  # the ros2msg texts; no DDS needed to read them
 
     texts: dict[str, str] = {}
     current = ros_type
