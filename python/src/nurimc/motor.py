@@ -365,9 +365,12 @@ class MotorProcedures:
 
     def read_state(self) -> Procedure[MotorState]:
         """Position feedback (§19); a speed-only line (SM) has none and reads its speed feedback."""
-        name = "request_position" if self.line.has("request_position") else "request_speed"
-        answer = yield from self.core.ask(self._request(name, "a reading"))
+        answer = yield from self.core.ask(self.state_request())
         return self.state_from(answer)
+
+    def state_request(self) -> Request:
+        """The request read_state sends."""
+        return self._request("request_position" if self.line.has("request_position") else "request_speed", "a reading")
 
     def read_speed(self) -> Procedure[float]:
         """Signed speed in RPM (CCW +) from speed feedback (§20)."""
@@ -393,6 +396,10 @@ class MotorProcedures:
     def get(self, name: str) -> Procedure[float | int | str]:
         s = self._setting(name)
         answer = yield from self.core.ask(self._request(s.request, s.name))
+        return self.setting_from(s, answer)
+
+    def setting_from(self, s: Setting, answer: Message) -> float | int | str:
+        """A setting's value from its answer (remembered for the motor)."""
         raw = answer.fields()[s.field]
         self._remember(s, raw)
         return s.to_physical(raw)
@@ -505,12 +512,26 @@ class AsyncHandle:
     bus: AsyncRunner
 
 
+def _get_in_place(bus: Any, motor: MotorProcedures, name: str) -> float | int | str:
+    """MotorProcedures.get through the bus's single-request call (client/fastpath.py)."""
+    s = motor._setting(name)
+    value: float | int | str = bus._request_then(motor._request(s.request, s.name), lambda a: motor.setting_from(s, a))
+    return value
+
+
 class _Call(Generic[P, T]):
     """One handle call, written once: runs its procedure on the handle's bus, sync or async.
     The handle's `procedures` (MotorProcedures, GroupProcedures) is the procedure's `self`."""
 
-    def __init__(self, procedure: Callable[Concatenate[Any, P], Procedure[T]]) -> None:
+    def __init__(
+        self,
+        procedure: Callable[Concatenate[Any, P], Procedure[T]],
+        in_place: Callable[Concatenate[Any, Any, P], T] | None = None,
+    ) -> None:
         self.procedure = procedure
+        #: the call on a sync bus that runs single requests in place (client/fastpath.py):
+        #: in_place(bus, procedures, *args) does what the procedure does, through bus._request_then
+        self.in_place = in_place
         self.__doc__ = procedure.__doc__
         self.name = procedure.__name__
 
@@ -528,11 +549,21 @@ class _Call(Generic[P, T]):
             return self
         procedure = self.procedure
         procedures = handle.procedures  # type: ignore[attr-defined]
-        run = handle.bus.run  # type: ignore[attr-defined]
+        bus = handle.bus  # type: ignore[attr-defined]
+        run = bus.run
+        in_place = self.in_place
+        call: Callable[P, Any]
+        if in_place is not None and getattr(bus, "_request_then", None) is not None:
 
-        @functools.wraps(procedure)
-        def call(*args: P.args, **kwargs: P.kwargs) -> Any:
-            return run(procedure(procedures, *args, **kwargs))
+            @functools.wraps(procedure)
+            def call(*args: P.args, **kwargs: P.kwargs) -> Any:
+                return in_place(bus, procedures, *args, **kwargs)
+
+        else:
+
+            @functools.wraps(procedure)
+            def call(*args: P.args, **kwargs: P.kwargs) -> Any:
+                return run(procedure(procedures, *args, **kwargs))
 
         # made once per handle: kept in the handle, where it is found before this descriptor
         # (a handle's procedures and bus never change); a handle with __slots__ makes it each time
@@ -563,10 +594,10 @@ class MotorApi:
     stop = _Call(MotorProcedures.stop)
     release = _Call(MotorProcedures.release)
     hold = _Call(MotorProcedures.hold)
-    read_state = _Call(MotorProcedures.read_state)
+    read_state = _Call(MotorProcedures.read_state, lambda bus, m: bus._request_then(m.state_request(), m.state_from))
     read_speed = _Call(MotorProcedures.read_speed)
     ping = _Call(MotorProcedures.ping)
-    get = _Call(MotorProcedures.get)
+    get = _Call(MotorProcedures.get, lambda bus, m, name: _get_in_place(bus, m, name))
     set = _Call(MotorProcedures.set)
     read_settings = _Call(MotorProcedures.read_settings)
 

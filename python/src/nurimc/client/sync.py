@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any, TypeVar
 
 from ..motor import Motor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
+from . import fastpath
 from .actions import Procedure
 from .clock import REAL_CLOCK, Clock
 from .log import FrameRecorder
@@ -67,6 +68,8 @@ class Bus:
         self.core = make_core(transport, retries, timing, options)
         self._lock = threading.RLock()
         self._listeners = Listeners(log_path, tracer, listeners)
+        #: the fast path for single requests (client/fastpath.py; NURIMC_NO_FAST_PATH=1: off)
+        self._fast_path = fastpath.enabled()
 
     @classmethod
     def open(cls, url: str, baudrate: int = 9600, **options: Any) -> Bus:
@@ -117,7 +120,30 @@ class Bus:
 
     def request(self, request: Request, retries: int | None = None) -> Message:
         """Send a feedback request and return the checked answer (raises NoAnswer & co.)."""
-        return self.run(self.core.ask(request, retries))
+        with self._lock:
+            if self._fast_path and not self._listeners.items:
+                return fastpath.ask(self.core, self.transport, self.clock, request, retries)
+            return drive(self.core.ask(request, retries), self.transport, self._listeners.items, None, None, self.clock)
+
+    def _request_then(self, request: Request, then: Callable[[Message], T]) -> T:
+        """`then(request(request))` under the bus lock: what a handle's one-request calls
+        (read_state, get) run, through the fast path when it applies (docs/performance.md)."""
+        with self._lock:
+            return then(self.request(request))
+
+    def _request_each(
+        self, asks: Iterable[tuple[Request, Callable[[Message], T]]], caught: tuple[type[Exception], ...]
+    ) -> list[T | Exception]:
+        """`request_then` for each pair in turn under one hold of the bus lock; an error of a
+        `caught` class takes its request's place in the list (a group's reads)."""
+        out: list[T | Exception] = []
+        with self._lock:
+            for request, then in asks:
+                try:
+                    out.append(then(self.request(request)))
+                except caught as err:
+                    out.append(err)
+        return out
 
     def send(self, *commands: Command) -> None:
         """Send commands back to back without waiting for answers (they are never answered);
