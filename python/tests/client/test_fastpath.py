@@ -15,6 +15,7 @@ import pytest
 from nurimc import Bus, Group
 from nurimc.client import fastpath
 from nurimc.client.perform import run_in_place as real
+from nurimc.errors import PortError
 from nurimc.protocol import Ping, PositionFeedback, RequestPosition
 
 from .fakes import ScriptedTransport
@@ -28,13 +29,18 @@ STALE = PositionFeedback(3, 1, 100, 0, 0)  # an answer that came after its call 
 class ChunkedTransport(ScriptedTransport):
     """Answers from a list, one per write (then nothing), read at most `chunk` bytes at a time."""
 
-    def __init__(self, answers: list[bytes], chunk: int = 64, waiting: bytes = b"") -> None:
+    def __init__(self, answers: list[bytes], chunk: int = 64, waiting: bytes = b"", lost_at: int = 0) -> None:
         script = iter(answers)
         super().__init__(lambda data: next(script, b""))
         self.chunk = chunk
         self.inbox += waiting
+        self.reads = 0
+        self.lost_at = lost_at  # this read (from 1) fails as an unplugged adapter would
 
     def read(self, max_bytes: int, timeout: float) -> bytes:
+        self.reads += 1
+        if self.reads == self.lost_at:
+            raise PortError("the port closed (adapter unplugged?)")
         return super().read(min(max_bytes, self.chunk), timeout)
 
 
@@ -56,6 +62,8 @@ SCENARIOS: dict[str, Callable[[], ChunkedTransport]] = {
     "noise waiting": lambda: ChunkedTransport([ANSWER.encode()] * 3, waiting=b"\x01\xff\x02"),
     "answer and noise": lambda: ChunkedTransport([ANSWER.encode() + b"\xff"] * 3),
     "short answer": lambda: ChunkedTransport([ANSWER.encode()[:7]] * 3),
+    # the request stays owed: the next call fences before asking again
+    "port fails in the read": lambda: ChunkedTransport([ANSWER.encode()] * 4, lost_at=1),
 }
 
 
@@ -95,6 +103,8 @@ def test_the_fast_path_and_the_procedure_agree(scenario: str, monkeypatch: pytes
         # three attempts, then the next calls fence first (answers owed): the procedure's rules ran
         assert fast[0][0][0] == "NoAnswer" and fast[1][:3] == [RequestPosition(3).encode()] * 3  # type: ignore[index]
         assert fast[2]["stats"]["fences"] > 0  # type: ignore[index]
+    if scenario == "port fails in the read":
+        assert fast[0][0][0] == "PortError" and fast[2]["stats"]["fences"] == 1  # type: ignore[index]
 
 
 def test_the_plain_answer_runs_no_procedure(monkeypatch: pytest.MonkeyPatch) -> None:

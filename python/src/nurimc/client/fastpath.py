@@ -67,7 +67,12 @@ def ask(core: BusCore, transport: Transport, clock: Clock, request: Request, ret
     data: bytes | None = None
     remaining = sent.finished + deadline - now()
     if remaining > 0:  # else: woke late; the procedure's late read takes what came
-        data = transport.read(answer_len, remaining)
+        try:
+            data = transport.read(answer_len, remaining)
+        except BaseException:  # as the procedure, which had counted and owed the request by then
+            core.stats.requests += 1
+            core._owe(rid, cls, sent.finished + deadline + core.late_answer)
+            raise
         if data:
             core._now = now()
             if len(data) == answer_len:
