@@ -14,6 +14,8 @@ import pytest
 
 from nurimc import Bus, Group
 from nurimc.client import fastpath
+from nurimc.client.clock import RealClock
+from nurimc.client.perform import LATE_READ
 from nurimc.client.perform import run_in_place as real
 from nurimc.errors import PortError
 from nurimc.protocol import Ping, PositionFeedback, RequestPosition
@@ -160,3 +162,45 @@ def test_group_reads_and_settings_on_the_simulator(fast: bool, monkeypatch: pyte
     finally:
         bus.close()
         sim.close()
+
+
+class DozingClock(RealClock):
+    """The real clock, but the host dozes off for a second right after each write has returned
+    (a loaded host): the second reading after a write (the write's end is the first) is late."""
+
+    def __init__(self) -> None:
+        self.offset = 0.0
+        self.readings_to_doze = 0
+
+    def now(self) -> float:
+        if self.readings_to_doze:
+            self.readings_to_doze -= 1
+            if not self.readings_to_doze:
+                self.offset += 1.0
+        return super().now() + self.offset
+
+
+@pytest.mark.parametrize("fast", [True, False], ids=["fast", "procedure"])
+def test_a_host_waking_past_the_deadline_takes_the_answer(fast: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(fastpath.NO_FAST_PATH, "" if fast else "1")
+    clock = DozingClock()
+    transport = ChunkedTransport([ANSWER.encode()] * 2)
+    respond = transport.respond
+    reads: list[float] = []
+    read = transport.read
+
+    def dozing(data: bytes) -> bytes:
+        clock.readings_to_doze = 2
+        return respond(data)
+
+    def late_read(max_bytes: int, timeout: float) -> bytes:
+        reads.append(timeout)
+        return read(max_bytes, timeout)
+
+    transport.respond = dozing
+    transport.read = late_read  # type: ignore[method-assign]
+    bus = Bus(transport, clock=clock)
+    assert bus.motor(3).read_state().device_position == 180.0  # the late read takes what came
+    assert bus.request(RequestPosition(3)) == ANSWER
+    assert reads == [LATE_READ, LATE_READ]  # each read started past its deadline
+    assert (bus.core.stats.answers, bus.core.stats.retries, bus.core._owed) == (2, 0, {})
