@@ -349,6 +349,23 @@ class BusCore:
             gap = last[1] + 2 * self.timing.wire_time(1, self.baudrate)
             if (yield NOW) < gap:
                 yield WaitUntil(gap)
+        return (yield from self.attempts(request, plan, deadline, attempts))
+
+    def attempts(
+        self,
+        request: Request,
+        plan: tuple[bytes, type[Message], int],
+        deadline: float,
+        attempts: int,
+        sent: Sent | None = None,
+        data: bytes | None = None,
+    ) -> Procedure[Message]:
+        """`ask`'s attempts once its fence and gap are done. `sent` (and `data`, what the first
+        read returned, if it ran): the first attempt's discard and write were already carried out
+        (the sync fast path, drivers/fastpath.py, hands a request over here when its answer is not
+        the plain one), so it goes on from there."""
+        frame, cls, answer_len = plan
+        rid = request.id
         failure: Exception | None = None
         first_sent: float | None = None
         stats = self.stats
@@ -356,22 +373,25 @@ class BusCore:
             if attempt > 1:
                 stats.retries += 1
                 yield Wait(self.retry_pause)
-            if self._waits_pending:
-                yield from self._wait_until_free([rid])
-            held = yield DISCARD  # _discard, inline: the usual discard finds nothing
-            if held:
-                yield from self._discarded(held)
-            sent: Sent = yield Send(frame)
+            if sent is None:
+                if self._waits_pending:
+                    yield from self._wait_until_free([rid])
+                held = yield DISCARD  # _discard, inline: the usual discard finds nothing
+                if held:
+                    yield from self._discarded(held)
+                sent = yield Send(frame)
             first_sent = sent.started if first_sent is None else first_sent
             stats.requests += 1
             until = sent.finished + deadline
+            sent = None
             self._owe(rid, cls, until + self.late_answer)
             parser = StreamParser(line=request.LINE)  # the answer in the request's product line
             others: list[Message] = []
             while True:
-                data = yield Receive(max(1, answer_len - parser.pending), until)
-                if data:
-                    self._now = yield NOW
+                if data is None:
+                    data = yield Receive(max(1, answer_len - parser.pending), until)
+                    if data:
+                        self._now = yield NOW
                 frames = parser.feed(data) if data else parser.finish()
                 for message in frames:
                     if type(message) is cls and message.id == rid:
@@ -386,6 +406,8 @@ class BusCore:
                         others.append(message)
                 if not data:
                     break
+                data = None
+            data = None
             self.stats.dropped_bytes += parser.stats.dropped_bytes
             failure = self._failure(request, attempt, parser, others, first_sent)
         self.stats.no_answer += 1

@@ -52,8 +52,15 @@ class HandleCall(Generic[P, T]):
     """One handle call, written once: runs its procedure on the handle's bus, sync or async.
     The handle's `procedures` (MotorProcedures, GroupProcedures) is the procedure's `self`."""
 
-    def __init__(self, procedure: Callable[Concatenate[Any, P], Procedure[T]]) -> None:
+    def __init__(
+        self,
+        procedure: Callable[Concatenate[Any, P], Procedure[T]],
+        in_place: Callable[Concatenate[Any, Any, P], T] | None = None,
+    ) -> None:
         self.procedure = procedure
+        #: the call on a sync bus that runs single requests in place (drivers/fastpath.py):
+        #: in_place(bus, procedures, *args) does what the procedure does, through bus._request_then
+        self.in_place = in_place
         self.__doc__ = procedure.__doc__
         self.name = procedure.__name__
 
@@ -71,11 +78,21 @@ class HandleCall(Generic[P, T]):
             return self
         procedure = self.procedure
         procedures = handle.procedures  # type: ignore[attr-defined]
-        run = handle.bus.run  # type: ignore[attr-defined]
+        bus = handle.bus  # type: ignore[attr-defined]
+        run = bus.run
+        in_place = self.in_place
+        call: Callable[P, Any]
+        if in_place is not None and getattr(bus, "_request_then", None) is not None:
 
-        @functools.wraps(procedure)
-        def call(*args: P.args, **kwargs: P.kwargs) -> Any:
-            return run(procedure(procedures, *args, **kwargs))
+            @functools.wraps(procedure)
+            def call(*args: P.args, **kwargs: P.kwargs) -> Any:
+                return in_place(bus, procedures, *args, **kwargs)
+
+        else:
+
+            @functools.wraps(procedure)
+            def call(*args: P.args, **kwargs: P.kwargs) -> Any:
+                return run(procedure(procedures, *args, **kwargs))
 
         # made once per handle: kept in the handle, where it is found before this descriptor
         # (a handle's procedures and bus never change); a handle with __slots__ makes it each time

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any, TypeVar
 
 from ..core.actions import Procedure
@@ -13,6 +13,7 @@ from ..procedures.motor import Motor
 from ..protocol import Command, Message, Request
 from ..transport import Transport, open_transport
 from ..transport.trafficlog import FrameRecorder
+from . import fastpath
 from .options import Listeners, make_core
 from .perform import Performer, run_in_place
 
@@ -67,6 +68,8 @@ class Bus:
         self.core = make_core(transport, retries, timing, options)
         self._lock = threading.RLock()
         self._listeners = Listeners(log_path, tracer, listeners)
+        #: the fast path for single requests (drivers/fastpath.py; NURIMC_NO_FAST_PATH=1: off)
+        self._fast_path = fastpath.enabled()
 
     @classmethod
     def open(cls, url: str, baudrate: int = 9600, **options: Any) -> Bus:
@@ -117,7 +120,30 @@ class Bus:
 
     def request(self, request: Request, retries: int | None = None) -> Message:
         """Send a feedback request and return the checked answer (raises NoAnswer & co.)."""
-        return self.run(self.core.ask(request, retries))
+        with self._lock:
+            if self._fast_path and not self._listeners.items:
+                return fastpath.ask(self.core, self.transport, self.clock, request, retries)
+            return self.run(self.core.ask(request, retries))  # run(): what a subclass does around it too
+
+    def _request_then(self, request: Request, then: Callable[[Message], T]) -> T:
+        """`then(request(request))` under the bus lock: what a handle's one-request calls
+        (read_state, get) run, through the fast path when it applies (docs/performance.md)."""
+        with self._lock:
+            return then(self.request(request))
+
+    def _request_each(
+        self, asks: Iterable[tuple[Request, Callable[[Message], T]]], caught: tuple[type[Exception], ...]
+    ) -> list[T | Exception]:
+        """`request_then` for each pair in turn under one hold of the bus lock; an error of a
+        `caught` class takes its request's place in the list (a group's reads)."""
+        out: list[T | Exception] = []
+        with self._lock:
+            for request, then in asks:
+                try:
+                    out.append(then(self.request(request)))
+                except caught as err:
+                    out.append(err)
+        return out
 
     def send(self, *commands: Command) -> None:
         """Send commands back to back without waiting for answers (they are never answered);

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Protocol
+from typing import Any, Protocol
 
 from ..core.actions import Now, Procedure
 from ..core.buscore import BusCore
@@ -129,6 +129,14 @@ class AsyncBusLike(AsyncRunner, Protocol):
     def motor(self, device_id: int, product: str = "mc") -> AsyncMotor: ...
 
 
+def _read_states_in_place(bus: Any, group: GroupProcedures) -> dict[int, MotorState | Exception]:
+    """GroupProcedures.read_states through the bus's single-request calls (drivers/fastpath.py):
+    one request per motor under one hold of the bus lock, the same errors kept per motor."""
+    motors = group.motors
+    states = bus._request_each(((m.state_request(), m.state_from) for m in motors), (NoAnswer, UnexpectedAnswer))
+    return dict(zip([m.id for m in motors], states, strict=True))
+
+
 class GroupApi:
     """The group API, once for both buses (as MotorApi: each call runs its procedure)."""
 
@@ -144,7 +152,7 @@ class GroupApi:
         self.procedures.slot = value
 
     command = HandleCall(GroupProcedures.command)
-    read_states = HandleCall(GroupProcedures.read_states)
+    read_states = HandleCall(GroupProcedures.read_states, lambda bus, g: _read_states_in_place(bus, g))
     stagger = HandleCall(GroupProcedures.stagger)
     read_states_broadcast = HandleCall(GroupProcedures.read_states_broadcast)
 

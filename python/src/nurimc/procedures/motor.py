@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..core.actions import Now, Procedure, Wait
 from ..core.buscore import BusCore
@@ -392,10 +392,13 @@ class MotorProcedures:
 
     def read_state(self) -> Procedure[MotorState]:
         """Position feedback (§19); a speed-only line (SM) has none and reads its speed feedback."""
-        name = "request_position" if self.line.has("request_position") else "request_speed"
-        answer = yield from self.core.ask(self._request(name, "a reading"))
+        answer = yield from self.core.ask(self.state_request())
         at: float = yield Now()
         return self.state_from(answer, at)
+
+    def state_request(self) -> Request:
+        """The request read_state sends."""
+        return self._request("request_position" if self.line.has("request_position") else "request_speed", "a reading")
 
     def read_speed(self) -> Procedure[float]:
         """Signed speed in RPM (CCW +) from speed feedback (§20)."""
@@ -421,6 +424,10 @@ class MotorProcedures:
     def get(self, name: str) -> Procedure[float | int | str]:
         s = self._setting(name)
         answer = yield from self.core.ask(self._request(s.request, s.name))
+        return self.setting_from(s, answer)
+
+    def setting_from(self, s: Setting, answer: Message) -> float | int | str:
+        """A setting's value from its answer (remembered for the motor)."""
         raw = answer.fields()[s.field]
         self._remember(s, raw)
         return s.to_physical(raw)
@@ -521,6 +528,13 @@ class MotorProcedures:
             self.core.control_released[self.id] = raw == 1
 
 
+def _get_in_place(bus: Any, motor: MotorProcedures, name: str) -> float | int | str:
+    """MotorProcedures.get through the bus's single-request call (drivers/fastpath.py)."""
+    s = motor._setting(name)
+    value: float | int | str = bus._request_then(motor._request(s.request, s.name), lambda a: motor.setting_from(s, a))
+    return value
+
+
 class MotorApi:
     """The motor API, once for both buses. Every call sends now (or raises); make_* build only."""
 
@@ -542,10 +556,13 @@ class MotorApi:
     stop = HandleCall(MotorProcedures.stop)
     release = HandleCall(MotorProcedures.release)
     hold = HandleCall(MotorProcedures.hold)
-    read_state = HandleCall(MotorProcedures.read_state)
+    read_state = HandleCall(
+        MotorProcedures.read_state,
+        lambda bus, m: bus._request_then(m.state_request(), lambda answer: m.state_from(answer, bus.clock.now())),
+    )
     read_speed = HandleCall(MotorProcedures.read_speed)
     ping = HandleCall(MotorProcedures.ping)
-    get = HandleCall(MotorProcedures.get)
+    get = HandleCall(MotorProcedures.get, lambda bus, m, name: _get_in_place(bus, m, name))
     set = HandleCall(MotorProcedures.set)
     read_settings = HandleCall(MotorProcedures.read_settings)
     tune = HandleCall(MotorProcedures.tune)

@@ -651,6 +651,7 @@ class AttachedBus(Bus):
         self.remote = RemoteTransport(conn, port, baudrate)
         self._subs: dict[int, Callable[[dict[str, Any]], None]] = {}
         super().__init__(self.remote, **options)
+        self._fast_path = False  # every request goes through run(): the holder's lease
 
     def run(self, procedure: Any, on_note: Callable[[Any], None] | None = None, timeout: float | None = None) -> Any:
         with self._lock:
