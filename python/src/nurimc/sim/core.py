@@ -455,7 +455,7 @@ class WireModel:
         self.worst_lag = max(self.worst_lag, lag)
         now = self.now()
         text = (
-            f"simulator fell behind real time by {lag * 1000:.0f} ms (more than a frame time, {frame * 1000:.1f} ms; "
+            f"simulator fell behind real time by {lag * 1000:.1f} ms (more than a frame time, {frame * 1000:.1f} ms; "
             f"{self.fell_behind} time(s) so far): the host is busy, so answers and motion come late; "
             "give it a quieter host or fewer controllers"
         )
