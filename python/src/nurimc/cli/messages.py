@@ -359,6 +359,16 @@ PATTERNS: tuple[str, ...] = (
     "programs using {port}",
 )
 
+#: Said when no controller answered: the causes, most likely first (docs/troubleshooting.md).
+WIRING_CHECKLIST = (
+    "no controller answered. Check, in this order:",
+    "  1. power: the controller's supply is on (its LED lights)",
+    "  2. wiring: A to A, B to B (swap them if unsure) and a common ground between adapter and controller",
+    "  3. port: the adapter's device (ls /dev/ttyUSB* /dev/ttyACM*) is the --port given",
+    "  4. termination: a 120 ohm resistor at each end of a long bus",
+    "then scan again; nurimc scan --expect N exits 1 when fewer than N controllers answer",
+)
+
 MESSAGES: tuple[str, ...] = (
     # tune (issue 35)
     "tuning",
@@ -393,12 +403,7 @@ MESSAGES: tuple[str, ...] = (
     # the positional arguments' names in messages (`degrees: '1000' is out of range`): Korean words
     "degrees",
     "rpm",
-    "no controller answered. Check, in this order:",
-    "  1. power: the controller's supply is on (its LED lights)",
-    "  2. wiring: A to A, B to B (swap them if unsure) and a common ground between adapter and controller",
-    "  3. port: the adapter's device (ls /dev/ttyUSB* /dev/ttyACM*) is the --port given",
-    "  4. termination: a 120 ohm resistor at each end of a long bus",
-    "then scan again; nurimc scan --expect N exits 1 when fewer than N controllers answer",
+    *WIRING_CHECKLIST,
     "a simulated RS485 bus with 3 controllers at rates the host does not know.",
     "live state",
     "target °",

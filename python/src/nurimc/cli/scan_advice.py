@@ -10,16 +10,7 @@ import typer
 from ..procedures.collisions import shared_message
 from .common import EXIT_DEVICE, err
 from .i18n import tr
-
-#: Said when no controller answered: the causes, most likely first (docs/troubleshooting.md).
-WIRING_CHECKLIST = (
-    "no controller answered. Check, in this order:",
-    "  1. power: the controller's supply is on (its LED lights)",
-    "  2. wiring: A to A, B to B (swap them if unsure) and a common ground between adapter and controller",
-    "  3. port: the adapter's device (ls /dev/ttyUSB* /dev/ttyACM*) is the --port given",
-    "  4. termination: a 120 ohm resistor at each end of a long bus",
-    "then scan again; nurimc scan --expect N exits 1 when fewer than N controllers answer",
-)
+from .messages import WIRING_CHECKLIST
 
 
 def scan_advice(found: list[Any], expect: int) -> None:
