@@ -23,6 +23,7 @@ let taken = 0; // the last arrival number taken into `shown`
 let rowHeight = 26; // measured from the rows drawn
 const pool = []; // <tr> elements, reused
 let scheduled = false;
+let scheduledForFrames = false;
 let language = 0; // bumped on a language change: every row is refilled
 
 /** A message's name in the page's language (the vendor's words); its protocol name is shown beside it as code. */
@@ -134,12 +135,16 @@ function render() {
   $("#raw-sizer").style.height = `${Math.ceil(total * rowHeight + head)}px`;
 }
 
-function schedule() {
+/** Draw at the next frame. `forFrames`: only new frames asked for it, and new frames never
+ * redraw a paused view (a redraw asked just before the pause is dropped, so the pause freezes what
+ * the user saw); a filter, a scroll or the language still redraws it. */
+function schedule(forFrames = false) {
+  scheduledForFrames = scheduled ? scheduledForFrames && forFrames : forFrames;
   if (scheduled) return;
   scheduled = true;
   requestAnimationFrame(() => {
     scheduled = false;
-    if (visible()) render();
+    if (visible() && !(scheduledForFrames && $("#raw-pause").checked)) render();
   });
 }
 
@@ -155,9 +160,9 @@ export function startRaw() {
       }
     },
   );
-  for (const id of ["#raw-id", "#raw-search"]) $(id).oninput = schedule;
-  for (const id of ["#raw-message", "#raw-dir", "#raw-polling"]) $(id).onchange = schedule;
-  $("#raw-viewport").addEventListener("scroll", schedule, { passive: true });
+  for (const id of ["#raw-id", "#raw-search"]) $(id).oninput = () => schedule();
+  for (const id of ["#raw-message", "#raw-dir", "#raw-polling"]) $(id).onchange = () => schedule();
+  $("#raw-viewport").addEventListener("scroll", () => schedule(), { passive: true });
   $("#raw-export").onclick = () =>
     download("nurimc-traffic.log", trafficLog(filterFrames(dashboard.frames, filters())), "application/x-ndjson");
   on("frames", (frames) => {
@@ -171,7 +176,7 @@ export function startRaw() {
   setInterval(() => {
     if (dirty && !$("#raw-pause").checked && visible()) {
       dirty = false;
-      schedule();
+      schedule(true);
     }
   }, REFRESH_MS);
   onLanguage(() => {
