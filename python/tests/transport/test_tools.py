@@ -40,7 +40,10 @@ def test_watch_says_the_loss_and_the_return_once_and_reads_again(tmp_path: Path)
     with cuttable_bus("pty", tmp_path) as (_, proxy):
         options = ("--port", proxy.url, "--baud", str(BAUD), "--id", "1", "--json")
         watch = start(*options, "watch", "--interval", "0.05", "--count", "70")
-        wait_until(lambda: proxy.from_host, 10)
+        # the cut comes once watch reads in its loop (a loss while it still sets up, telling the
+        # controller's product line, is a one-shot's error: exit 1, nothing sent)
+        wait_until(lambda: len(proxy.from_host) >= 6 or watch.poll() is not None, 60)
+        assert watch.poll() is None, watch.communicate(timeout=30)
         proxy.cut()
         time.sleep(CUT)
         proxy.restore()
