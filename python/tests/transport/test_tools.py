@@ -109,7 +109,9 @@ def test_record_resumes_with_fresh_readings_after_the_port_returns(tmp_path: Pat
     with cuttable_bus("pty", tmp_path) as (_, proxy):
         options = ("--port", proxy.url, "--baud", str(BAUD))
         record = start(*options, "record", "--mcap", str(recording), "--ids", "1", "--rate", "20", "--seconds", "4")
-        wait_until(lambda: proxy.from_host, 20)
+        # the cut comes once record reads in its loop (as watch's test above)
+        wait_until(lambda: len(proxy.from_host) >= 6 or record.poll() is not None, 60)
+        assert record.poll() is None, record.communicate(timeout=30)
         proxy.cut()
         time.sleep(CUT)
         proxy.restore()
