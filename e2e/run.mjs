@@ -136,6 +136,15 @@ test("a move shows in the live plot, with its target, on a time axis relative to
       { timeout: 60000 },
     );
     await afterSamples(page, 30);
+    // the card's plot is drawn at its own pace (a busy host draws later): wait for it to show the move
+    await page.waitForFunction(
+      () => {
+        const [, positions] = window.dashboard.motors.get(1).plot.data;
+        return positions.length > 0 && Math.max(...positions) - Math.min(...positions) > 100;
+      },
+      undefined,
+      { timeout: 60000 },
+    );
     const plotted = await page.evaluate(() => window.dashboard.motors.get(1).plot.data);
     assert.ok(Math.max(...plotted[1]) - Math.min(...plotted[1]) > 100, "the plotted positions span the move");
     assert.ok(
