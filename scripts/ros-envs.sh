@@ -39,12 +39,12 @@ install_release() {
       "${pip[@]}" wheel --quiet --use-pep517 --no-deps --wheel-dir "$dir/wheels" "$sdist"
   done
   "${pip[@]}" install --quiet --no-index --find-links "$dir/wheels" "$@"
-  "$dir/venv/bin/python" -c "import rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg, diagnostic_msgs.msg"
+  "$dir/venv/bin/python" -c "import rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg, diagnostic_msgs.msg, std_srvs.srv, rcl_interfaces.srv"
   echo "$want" >"$stamp"
   echo "ros-envs: $release installed ($dir/venv)"
 }
 
-install_release jazzy ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-sensor-msgs ros-jazzy-std-msgs \
+install_release jazzy ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-sensor-msgs ros-jazzy-std-msgs ros-jazzy-std-srvs \
   ros-jazzy-diagnostic-msgs ros-jazzy-nav-msgs ros-jazzy-geometry-msgs
-install_release kilted ros-rclpy ros-rmw-fastrtps-cpp ros-sensor-msgs ros-std-msgs ros-diagnostic-msgs \
+install_release kilted ros-rclpy ros-rmw-fastrtps-cpp ros-sensor-msgs ros-std-msgs ros-std-srvs ros-diagnostic-msgs \
   ros-nav-msgs ros-geometry-msgs
