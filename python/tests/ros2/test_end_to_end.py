@@ -317,7 +317,8 @@ def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
 
 def test_a_configuration_cyclone_refuses_is_one_line() -> None:
     proc = subprocess.run(
-        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "--seconds", "1"],
+        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "--seconds", "1"]
+        + ["--dds", "cyclone"],
         capture_output=True,
         text=True,
         timeout=30,
@@ -332,3 +333,23 @@ def test_a_configuration_cyclone_refuses_is_one_line() -> None:
     assert (
         "Cyclone DDS refused its configuration: check CYCLONEDDS_URI" in proc.stderr and "Traceback" not in proc.stderr
     )
+
+
+@pytest.mark.parametrize(
+    ("variable", "value", "says"),
+    [
+        ("CYCLONEDDS_URI", "<CycloneDDS><Domain>", "CYCLONEDDS_URI is not well-formed XML"),
+        ("ROS_STATIC_PEERS", "a b", "ROS_STATIC_PEERS"),
+        ("ROS_AUTOMATIC_DISCOVERY_RANGE", "WIDE", "ROS_AUTOMATIC_DISCOVERY_RANGE"),
+    ],
+)
+def test_a_network_setting_our_dds_cannot_use_is_one_line(variable: str, value: str, says: str) -> None:
+    proc = subprocess.run(
+        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "--seconds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        env={**os.environ, "NO_COLOR": "1", "COLUMNS": "300", variable: value},
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert says in proc.stderr and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

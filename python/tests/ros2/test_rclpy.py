@@ -94,9 +94,10 @@ def test_arm_with_a_real_ros2_node(release: str) -> None:
     assert ["nurimc", ns] in seen["graph"]["nodes"], seen["graph"]
     # USER_DATA typehash: the node sees the hash ROS 2's own sensor_msgs wheel ships for JointState
     assert seen["graph"]["joint_states_type_hashes"] == [shipped_hash(release, "sensor_msgs/msg/JointState")]
-    if release == "jazzy":  # Kilted: see docs/ros2.md (endpoints without a participant GUID)
-        assert seen["graph"]["joint_states_publishers"] == [["nurimc", ns]], seen["graph"]
-        assert ["nurimc", ns] in seen["graph"]["position_commands_subscribers"], seen["graph"]
+    # both releases: our endpoints carry their participant's GUID, which Kilted's Fast DDS 3 needs (docs/ros2.md)
+    assert seen["graph"]["joint_states_publishers"] == [["nurimc", ns]], seen["graph"]
+    assert ["nurimc", ns] in seen["graph"]["position_commands_subscribers"], seen["graph"]
+    assert {f"{ns}/joint_states", "/diagnostics", "/robot_joint_states"} <= set(seen["graph"]["publishers_by_node"])
     assert seen["position_reached"] and abs(seen["position"] - math.pi / 2) <= 0.002, seen
     assert seen["control_position_reached"], seen
     assert seen["control_velocity_reached"] and abs(seen["control_velocity"] - 1.5) <= 0.05, seen

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import sys
 import threading
 from pathlib import Path
 from typing import Any
@@ -211,6 +212,11 @@ def ros2(
         "--torque-constants",
         help="N·m/A per joint in --ids order, e.g. 0.12,0.12: effort in N·m (default: amperes).",
     ),
+    dds: str = typer.Option(
+        "rtps",
+        "--dds",
+        help="DDS stack: rtps (ours, pure Python: topics, parameters, services) or cyclone (Cyclone DDS: topics only).",
+    ),
 ) -> None:
     """Publish joint_states and /diagnostics; obey position_commands, velocity_commands and estop (ROS 2 over DDS).
 
@@ -220,7 +226,7 @@ def ros2(
     need_extra()
     from ..ros2 import control_topics, diffdrive
     from ..ros2.bridge import Bridge
-    from ..ros2.dds import Participant, domain_id
+    from ..ros2.dds import domain_id
     from ..ros2.graph import node_name as check_node_name
     from ..ros2.names import NameError_, topic, topic_option
     from ..ros2.names import joint_names as make_joint_names
@@ -270,8 +276,8 @@ def ros2(
                     prefix + odom_frame, prefix + base_frame,
                 )  # fmt: skip
                 diffdrive.DiffDrive(bridge, base)  # checks the set-up before DDS is touched
-            participant = Participant(domain)
-        except ValueError as error:
+            participant = open_participant(dds, domain)
+        except (ValueError, OSError) as error:
             fail(str(error))
         node = BridgeNode(bus, bridge, participant, ns, rate, o.product, broadcast_read, recorder, node_name=node_name)
         if recorder is not None:  # odom, /tf and /diagnostics too, besides joint_states and the frames
@@ -309,6 +315,22 @@ def ros2(
         bus.close()
         if recorder is not None:
             recorder.close()
+
+
+DDS_STACKS = ("rtps", "cyclone")
+
+
+def open_participant(stack: str, domain: int) -> Any:
+    """The bridge's DDS participant: ours (ros2/rtps/, the default) or Cyclone DDS's (ros2/dds.py)."""
+    if stack not in DDS_STACKS:
+        raise ValueError(f"--dds {stack!r}: give one of {', '.join(DDS_STACKS)}")
+    if stack == "cyclone":
+        from ..ros2.dds import Participant
+
+        return Participant(domain)
+    from ..ros2.rtps.topics import RtpsParticipant
+
+    return RtpsParticipant(domain, log=lambda text: print(text, file=sys.stderr, flush=True))
 
 
 def share_bus(node: Any, bus: Bus, o: Options, motor_list: list[int]) -> Any:

@@ -142,6 +142,20 @@ class Participant:
         reader.__del__()
         return others
 
+    def qos_watch(self, log: Callable[[str], None]) -> Any:
+        """Who publishes our command topics with a QoS our readers cannot take, said once by name (qoswatch.py)."""
+        from .qoswatch import IncompatibleWriters
+
+        watch = IncompatibleWriters(self.participant, log)
+        self.on_incompatible_qos = watch.on_incompatible
+        return watch
+
+    def node_announcer(self, name: str, namespace: str) -> Any:
+        """The node in the ROS 2 graph (graph.py): `announce()` once every endpoint exists."""
+        from .graph import NodeAnnouncer
+
+        return NodeAnnouncer(self, name, namespace)
+
     def close(self) -> None:
         # Deleting the participant deletes its readers, writers and topics (and listeners) with it.
         self._topics.clear()

@@ -20,7 +20,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ..drivers.sync import Bus
 from ..errors import NurimcError, PortLost
@@ -37,9 +37,10 @@ from . import msgs
 from .bridge import Action, Bridge, Hold, MoveTo, Refused, ReleaseAll, Run
 from .coalesce import CommandQueue
 from .dds import Participant
-from .graph import NodeAnnouncer
 from .names import topic
-from .qoswatch import IncompatibleWriters
+
+if TYPE_CHECKING:
+    from .rtps.topics import RtpsParticipant
 
 DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
 DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
@@ -62,7 +63,7 @@ class BridgeNode:
         self,
         bus: Bus,
         bridge: Bridge,
-        participant: Participant,
+        participant: Participant | RtpsParticipant,
         namespace: str = "/",
         rate: float = 50.0,
         product: str = "mc",
@@ -110,8 +111,7 @@ class BridgeNode:
         self.done = threading.Event()
         self.failure: str | None = None
         #: a command publisher with an incompatible QoS (best effort) is logged once, by node name
-        self.qos_watch = IncompatibleWriters(participant.participant, self._log)
-        participant.on_incompatible_qos = self.qos_watch.on_incompatible
+        self.qos_watch = participant.qos_watch(self._log)
         self._state_writer = participant.writer(self.joint_states_topic, msgs.JointState)
         self._diagnostics_writer = participant.writer("/diagnostics", msgs.DiagnosticArray)
         self._readers = [
@@ -128,7 +128,7 @@ class BridgeNode:
         #: given each round of readings (ID -> state or error): the bus service shares them with attached programs
         self.on_states: list[Callable[[dict[int, MotorState | Exception]], None]] = []
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
-        self.graph = NodeAnnouncer(participant, node_name, namespace) if node_name else None
+        self.graph = participant.node_announcer(node_name, namespace) if node_name else None
 
     # -- DDS threads ------------------------------------------------------------------------
     def _queue(self, kind: str) -> Callable[[Any], None]:

@@ -60,8 +60,13 @@ class Probe:
             (i.node_name, i.node_namespace)
             for i in self.node.get_subscriptions_info_by_topic(f"{self.ns}/position_commands")
         ]
+        try:
+            by_node = sorted(name for name, _ in self.node.get_publisher_names_and_types_by_node("nurimc", self.ns))
+        except Exception as error:  # the node not (yet) in the graph: rclpy raises NodeNameNonExistentError
+            by_node = [f"error: {error}"]
         return {
             "nodes": names,
+            "publishers_by_node": by_node,
             "joint_states_publishers": pubs,
             "joint_states_type_hashes": hashes,
             "position_commands_subscribers": subs,

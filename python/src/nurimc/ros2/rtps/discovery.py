@@ -61,7 +61,7 @@ def _duration(value: bytes, little: bool) -> float:
     sec, frac = struct.unpack_from("<iI" if little else ">iI", value)
     if sec == 0x7FFFFFFF:
         return float("inf")
-    return sec + frac / 2**32
+    return float(sec + frac / 2**32)
 
 
 def _payload_params(payload: bytes) -> tuple[list[tuple[int, bytes]], bool]:
@@ -167,8 +167,9 @@ def endpoint_dispose(guid: Guid) -> bytes:
     )
 
 
-def parse_endpoint(item: wire.Data, participant: RemoteParticipant | None) -> RemoteEndpoint | None:
-    """The reader or writer a DATA(r)/DATA(w) announces, or None for a dispose."""
+def parse_endpoint(item: wire.Data, participant: RemoteParticipant | None, writer: bool) -> RemoteEndpoint | None:
+    """The reader or writer a DATA(r)/DATA(w) announces, or None for a dispose. A QoS left out is
+    the default (DDS 1.4, 2.2.3): a writer is reliable, a reader best effort."""
     if item.payload is None or is_dispose(item):
         return None
     params, little = _payload_params(item.payload)
@@ -176,7 +177,7 @@ def parse_endpoint(item: wire.Data, participant: RemoteParticipant | None) -> Re
     if raw is None or len(raw) < 16:
         raise wire.WireError("an endpoint announcement without its GUID")
     topic = type_name = ""
-    reliable, transient = False, False
+    reliable, transient = writer, False
     for pid, value in params:
         if pid == wire.PID_TOPIC_NAME:
             topic = wire.read_string(value, little)

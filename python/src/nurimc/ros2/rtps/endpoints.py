@@ -47,7 +47,8 @@ class Writer:
 
     # the remote readers
     def match(self, remote: RemoteEndpoint) -> list[Outgoing]:
-        start = min(self.history, default=self.next_sn) if self.qos.transient_local and remote.transient_local else self.next_sn
+        durable = self.qos.transient_local and remote.transient_local
+        start = min(self.history, default=self.next_sn) if durable else self.next_sn
         proxy = ReaderProxy(remote, start, acked=start - 1)
         self.readers[remote.guid] = proxy
         if not remote.reliable:
@@ -65,13 +66,9 @@ class Writer:
         self.history[sn] = (payload, inline_qos)
         while len(self.history) > self.qos.depth:
             del self.history[min(self.history)]
-        out = []
-        for proxy in self.readers.values():
-            sub = self._data(proxy, sn)
-            if proxy.remote.reliable and self.qos.reliable:
-                sub += self._heartbeat(proxy)
-            out.append(self._to(proxy, sub))
-        return out
+        # No heartbeat with each sample (it would cost an ACKNACK per sample per reader): the periodic
+        # one (participant.HEARTBEAT_PERIOD) repairs a lost sample.
+        return [self._to(proxy, self._data(proxy, sn)) for proxy in self.readers.values()]
 
     def on_acknack(self, reader: Guid, base: int, missing: list[int]) -> list[Outgoing]:
         proxy = self.readers.get(reader)
@@ -129,11 +126,14 @@ class Reader:
         topic: str,
         type_name: str,
         qos: Qos,
-        on_sample: Callable[[wire.Data, RemoteEndpoint], None],
+        on_sample: Callable[[wire.Data, RemoteEndpoint], Callable[[], None] | None],
         user_data: bytes = b"",
+        deferred: list[Callable[[], None]] | None = None,
     ) -> None:
         self.guid, self.topic, self.type_name, self.qos, self.user_data = guid, topic, type_name, qos, user_data
+        #: given each sample in order; what it returns runs later, without the participant's lock
         self.on_sample = on_sample
+        self.deferred: list[Callable[[], None]] = [] if deferred is None else deferred
         self.writers: dict[Guid, WriterProxy] = {}
         self._count = 0
 
@@ -202,7 +202,9 @@ class Reader:
 
     def _deliver(self, proxy: WriterProxy, item: wire.Data) -> None:
         if item.payload is not None and not item.key_only:
-            self.on_sample(item, proxy.remote)
+            later = self.on_sample(item, proxy.remote)
+            if later is not None:
+                self.deferred.append(later)
 
     def _missing(self, proxy: WriterProxy, last: int) -> list[int]:
         end = min(last, proxy.expected + MAX_NACKED - 1)

@@ -16,6 +16,7 @@ import struct
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from xml.etree import ElementTree
 
 from ..ddsconfig import MAX_PARTICIPANT_INDEX, discovery_range, static_peers
 
@@ -98,6 +99,13 @@ def from_environment(domain: int, environ: Mapping[str, str] | None = None) -> N
     elif where == "OFF":
         config.multicast = False
     user = _user_xml(env.get("CYCLONEDDS_URI", ""))
+    for fragment in re.findall(r"<CycloneDDS\b.*?(?:</CycloneDDS>|$)", user, re.S) if user else []:
+        try:
+            ElementTree.fromstring(fragment)
+        except ElementTree.ParseError as error:
+            raise ValueError(
+                f"CYCLONEDDS_URI is not well-formed XML ({error}): fix it, or unset it to use the defaults"
+            ) from None
     if user:
         match = re.search(r"<NetworkInterface\b([^>]*)>", user)
         if match:

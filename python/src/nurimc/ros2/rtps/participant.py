@@ -14,6 +14,7 @@ import struct
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 
 from . import discovery, wire
 from .discovery import Qos, RemoteEndpoint, RemoteParticipant
@@ -26,6 +27,11 @@ HEARTBEAT_PERIOD = 0.2
 LEASE = 20.0
 TICK = 0.05
 MAX_DATAGRAM = 65536
+
+
+def _call_each(calls: list[Callable[[], None]]) -> None:
+    for call in calls:
+        call()
 
 
 class NoPortFree(OSError):
@@ -51,6 +57,11 @@ class Participant:
         self.readers: dict[bytes, Reader] = {}
         self._remote_endpoints: dict[Guid, RemoteEndpoint] = {}
         self._spdp_sn = 0
+        self._deferred: list[Callable[[], None]] = []  # reader callbacks, run after the lock is released
+        #: runs the deferred callbacks (topics.py gives one that logs a callback's error)
+        self.after_receive: Callable[[list[Callable[[], None]]], None] = _call_each
+        #: told (reader, remote writer) when a writer of a reader's topic offers less than it needs
+        self.on_incompatible: Callable[[Reader, RemoteEndpoint], None] | None = None
         self._builtin()
         self._thread = threading.Thread(target=self._run, name="nurimc-rtps", daemon=True)
         self._started = False
@@ -107,6 +118,8 @@ class Participant:
         self.sedp_sub_reader = Reader(
             Guid(self.prefix, wire.SEDP_SUB_READER), "DCPSSubscription", "", Qos(True, True), self._on_subscription
         )
+        for builtin in (self.sedp_pub_reader, self.sedp_sub_reader):
+            builtin.deferred = self._deferred
         for w in (self.sedp_pub_writer, self.sedp_sub_writer):
             self.writers[w.guid.entity] = w
         for r in (self.sedp_pub_reader, self.sedp_sub_reader):
@@ -131,7 +144,7 @@ class Participant:
                 discovery.endpoint_data(writer.guid, topic, type_name, qos, user_data, self.user_locators)
             )
             for remote in self._remote_endpoints.values():
-                if self._is_remote_reader(remote) and self._matches(remote, topic, type_name, qos):
+                if self.is_remote_reader(remote) and self._matches(remote, topic, type_name, qos):
                     out += writer.match(remote)
         self._send(out)
         return writer
@@ -141,19 +154,18 @@ class Participant:
         topic: str,
         type_name: str,
         qos: Qos,
-        on_sample: Callable[[wire.Data, RemoteEndpoint], None],
+        on_sample: Callable[[wire.Data, RemoteEndpoint], Callable[[], None] | None],
         user_data: bytes = b"",
     ) -> Reader:
         with self._lock:
-            reader = Reader(
-                Guid(self.prefix, self._entity(wire.KIND_READER_NO_KEY)), topic, type_name, qos, on_sample, user_data
-            )
+            guid = Guid(self.prefix, self._entity(wire.KIND_READER_NO_KEY))
+            reader = Reader(guid, topic, type_name, qos, on_sample, user_data, self._deferred)
             self.readers[reader.guid.entity] = reader
             out = self.sedp_sub_writer.write(
                 discovery.endpoint_data(reader.guid, topic, type_name, qos, user_data, self.user_locators)
             )
             for remote in self._remote_endpoints.values():
-                if not self._is_remote_reader(remote) and self._matches(remote, topic, type_name, qos):
+                if not self.is_remote_reader(remote) and self._matches(remote, topic, type_name, qos):
                     out += reader.match(remote)
         self._send(out)
         return reader
@@ -163,8 +175,12 @@ class Participant:
             out = writer.write(payload, inline_qos)
         self._send(out, stamp=True)
 
+    def remote_endpoints(self) -> list[RemoteEndpoint]:
+        with self._lock:
+            return list(self._remote_endpoints.values())
+
     @staticmethod
-    def _is_remote_reader(remote: RemoteEndpoint) -> bool:
+    def is_remote_reader(remote: RemoteEndpoint) -> bool:
         return remote.guid.entity[3] & 0x0F in (0x04, 0x07)
 
     @staticmethod
@@ -289,8 +305,11 @@ class Participant:
                 remote = self.remote.get(sub.source)
                 if remote is not None:
                     remote.last_seen = time.monotonic()
+            calls, self._deferred[:] = list(self._deferred), []
         self._send(out)
         self._send(meta_out, meta=True)
+        if calls:
+            self.after_receive(calls)
 
     def _readers_of(self, writer: Guid, reader_id: bytes) -> list[Reader]:
         if reader_id != wire.ENTITY_UNKNOWN:
@@ -343,7 +362,7 @@ class Participant:
             key = discovery.key_guid(item)
             if key is not None:
                 participant = self.remote.get(key.prefix)
-            remote = discovery.parse_endpoint(item, participant)
+            remote = discovery.parse_endpoint(item, participant, writer)
         except (wire.WireError, struct.error):
             return
         if remote is None:
@@ -365,11 +384,13 @@ class Participant:
                 if reader.type_name and self._matches(remote, reader.topic, reader.type_name, reader.qos):
                     if remote.reliable or not reader.qos.reliable:
                         out += reader.match(remote)
+                    elif self.on_incompatible is not None:  # best effort offered, reliable needed: no match
+                        self._deferred.append(partial(self.on_incompatible, reader, remote))
         else:
             for local in list(self.writers.values()):
-                if local.type_name and self._matches(remote, local.topic, local.type_name, local.qos):
-                    if local.qos.reliable or not remote.reliable:
-                        out += local.match(remote)
+                compatible = local.qos.reliable or not remote.reliable
+                if local.type_name and compatible and self._matches(remote, local.topic, local.type_name, local.qos):
+                    out += local.match(remote)
         self._send(out)
 
     def _unmatch(self, guid: Guid) -> None:

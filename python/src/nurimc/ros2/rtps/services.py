@@ -18,6 +18,7 @@ Requests are handled one at a time per service on a worker thread (a handler may
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import struct
 import threading
@@ -116,10 +117,8 @@ class ServiceServer:
         self.served += 1
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(queue.Full):
             self._queue.put_nowait(None)
-        except queue.Full:
-            pass
 
 
 def unpack_identity(raw: bytes) -> tuple[bytes, int]:

@@ -138,7 +138,7 @@ def pack_sn(sn: int) -> bytes:
 
 def unpack_sn(data: bytes, offset: int, little: bool) -> int:
     high, low = struct.unpack_from("<iI" if little else ">iI", data, offset)
-    return (high << 32) | low
+    return int((high << 32) | low)
 
 
 def pack_sn_set(base: int, members: list[int]) -> bytes:
@@ -233,6 +233,9 @@ def info_ts(seconds: float) -> bytes:
 
 def data(reader: bytes, writer: bytes, sn: int, payload: bytes | None, inline_qos: bytes = b"") -> bytes:
     flags = (0x02 if inline_qos else 0) | (0x04 if payload is not None else 0)
+    pad = -len(payload or b"") % 4
+    if payload is not None and pad and len(payload) >= 4:  # the encapsulation's options say how much padding
+        payload = payload[:3] + bytes([payload[3] | pad]) + payload[4:] + bytes(pad)
     body = struct.pack("<HH", 0, 16) + reader + writer + pack_sn(sn) + inline_qos + (payload or b"")
     return submessage(DATA, flags, body + bytes(-len(body) % 4))
 
