@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 from nurimc.drivers.sync import Bus
+from nurimc.ros2 import diffdrive
 from nurimc.ros2 import interfaces as i
 from nurimc.ros2.bridge import Bridge
 from nurimc.ros2.dds import Participant
@@ -240,6 +241,24 @@ def test_a_controller_setting_parameter_is_written_and_read_back_on_the_controll
         (firmware,) = services.set(motor_1__firmware=3)
         assert not firmware.successful and "read-only" in firmware.reason
         assert sim.controller(1).settings.position_kp == before
+
+
+def test_the_mobile_bases_limits_are_parameters_checked_together() -> None:
+    with virtual_node() as (_, node, _, _):
+        base = diffdrive.attach(node, diffdrive.BaseConfig(1, 2, 0.05, 0.3))
+        services = Services(bridge_services(node, "nurimc", "/svc"))
+        listed = services.call("list_parameters", i.ListParameters_Request(["base"], 0)).result
+        assert "base.max_linear" in listed.names and "base.wheel_radius" in listed.names
+        (slower,) = services.set(base__max_linear=0.5)
+        assert slower.successful and base.config.max_linear == 0.5
+        assert services.get("base.max_linear", "base.left_id") == [0.5, 1]
+        (too_much,) = services.set(base__max_linear=40.0)  # within --max-linear's range, beyond the wheels'
+        assert not too_much.successful and "more than the controller's" in too_much.reason, too_much.reason
+        (radius,) = services.set(base__wheel_radius=0.1)
+        assert not radius.successful and "--wheel-radius" in radius.reason
+        assert (base.config.max_linear, base.config.wheel_radius) == (0.5, 0.05)
+        (stop_after,) = services.set(base__timeout=1.5)
+        assert stop_after.successful and base.config.timeout == 1.5
 
 
 # -- nurimc_msgs services --------------------------------------------------------------------

@@ -130,6 +130,8 @@ class BridgeNode:
         self.on_stop: list[Callable[[StopResult], None]] = []  # given the result of each estop
         #: given each round of readings (ID -> state or error): the bus service shares them with attached programs
         self.on_states: list[Callable[[dict[int, MotorState | Exception]], None]] = []
+        #: the mobile base (diffdrive.attach), if any: its limits are parameters (parameters.py)
+        self.base: Any = None
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
         self.graph = NodeAnnouncer(participant, node_name, namespace) if node_name else None
 
@@ -428,7 +430,7 @@ class BridgeNode:
             self._log(f"estop: ID {ids_text} did not confirm control off within {STOP_VERIFY} s")
         if result.stopped:
             self._log(f"estop: control off confirmed on ID {', '.join(map(str, result.stopped))}")
-        for told in self.on_stop:  # the programs attached to this port are told (docs/service.md)
+        for told in list(self.on_stop):  # the programs attached to this port are told (docs/service.md)
             told(result)
         return result
 

@@ -19,13 +19,23 @@ Every handler answers, whatever happens: errors become the response's fields, ne
 from __future__ import annotations
 
 import concurrent.futures
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from ..cli.common import Number
 from ..cli.motion import RAMP
-from ..cli.ros2_cmd import COMMAND_TIMEOUT, MOVE_VELOCITY, RATE
+from ..cli.ros2_cmd import (
+    COMMAND_TIMEOUT,
+    MAX_ANGULAR,
+    MAX_ANGULAR_ACCEL,
+    MAX_LINEAR,
+    MAX_LINEAR_ACCEL,
+    MOVE_VELOCITY,
+    RATE,
+)
 from ..errors import NurimcError, PortLost
 from ..procedures.settings import SETTINGS, Setting
 from ..service.core import COMMAND, READ, Cancelled
@@ -259,7 +269,68 @@ def bridge_parameters(node: BridgeNode) -> list[BridgeParameter]:
             0.1,
         ),
     ]
-    return writable + fixed
+    return writable + fixed + base_parameters(node)
+
+
+BASE_PREFIX = "base" + SEPARATOR
+#: the mobile base's limits a parameter may change: (config field, its option's range, what it is)
+BASE_LIMITS: list[tuple[str, Number, str]] = [
+    ("max_linear", MAX_LINEAR, "speed limit of the base, m/s"),
+    ("max_angular", MAX_ANGULAR, "turn-rate limit of the base, rad/s"),
+    ("max_linear_accel", MAX_LINEAR_ACCEL, "acceleration limit of the base, m/s²"),
+    ("max_angular_accel", MAX_ANGULAR_ACCEL, "angular acceleration limit of the base, rad/s²"),
+    ("timeout", COMMAND_TIMEOUT, "s without cmd_vel before the base decelerates to a stop; 0 = off"),
+]
+
+
+def base_parameters(node: BridgeNode) -> list[BridgeParameter]:
+    """With --diff-drive: the base's limits (writable; checked together, as at start) and its geometry."""
+    base = node.base
+    if base is None:
+        return []
+
+    def number(name: str, option: Number) -> Callable[[i.ParameterValue], float]:
+        return lambda value: _in_range(name, _number(name, value, i.PARAMETER_DOUBLE), option.low, option.high, "")
+
+    def setter(field: str) -> Callable[[Any], None]:
+        return lambda value: setattr(base, "config", dataclasses.replace(base.config, **{field: float(value)}))
+
+    def reader(field: str) -> Callable[[], Value]:
+        return lambda: getattr(base.config, field)
+
+    out = []
+    for field, option, text in BASE_LIMITS:
+        name = BASE_PREFIX + field
+        check, apply = number(name, option), setter(field)
+        out.append(BridgeParameter(name, i.PARAMETER_DOUBLE, text, reader(field), check, apply, *_range(option)))
+    for field, kind, text, flag in [
+        ("wheel_radius", i.PARAMETER_DOUBLE, "wheel radius, m", "--wheel-radius"),
+        ("wheel_separation", i.PARAMETER_DOUBLE, "distance between the wheels, m", "--wheel-separation"),
+        ("left_id", i.PARAMETER_INTEGER, "ID of the left wheel's motor", "--diff-drive"),
+        ("right_id", i.PARAMETER_INTEGER, "ID of the right wheel's motor", "--diff-drive"),
+        ("odom_frame", i.PARAMETER_STRING, "frame id of the odometry", "--odom-frame"),
+        ("base_frame", i.PARAMETER_STRING, "frame id of the base", "--base-frame"),
+    ]:
+        out.append(BridgeParameter(BASE_PREFIX + field, kind, text, reader(field), fixed=flag))
+    return out
+
+
+def _range(option: Number) -> tuple[float, float]:
+    return option.low, option.high
+
+
+def check_base(node: BridgeNode, changes: list[tuple[BridgeParameter, Any]]) -> None:
+    """The base's limits as they would be after `changes`, checked together as at start (the
+    wheels must be able to carry max_linear and max_angular at once): Refusal if not."""
+    base = node.base
+    fields = {p.name[len(BASE_PREFIX) :]: float(v) for p, v in changes if p.name.startswith(BASE_PREFIX)}
+    if base is None or not fields:
+        return
+    try:
+        dataclasses.replace(base.config, **fields).check()
+    except ValueError as error:
+        names = ", ".join(BASE_PREFIX + f for f in fields)
+        raise Refusal(f"{names}: {error}") from None
 
 
 # -- controller settings as parameters ------------------------------------------------------
@@ -333,10 +404,9 @@ def setting_wire_value(s: Setting, value: i.ParameterValue, name: str) -> object
 class BridgeParameters:
     """The six parameter services of the bridge node (rclpy's semantics)."""
 
-    def __init__(self, node: BridgeNode, node_path: str = "/nurimc", log: Callable[[str], None] | None = None) -> None:
+    def __init__(self, node: BridgeNode, node_path: str = "/nurimc") -> None:
         self.node = node
         self.node_path = node_path  # "/arm/nurimc": said in refusals (ros2 param list /arm/nurimc)
-        self.log = log or node._log
         self.own = {p.name: p for p in bridge_parameters(node)}
 
     # -- names -------------------------------------------------------------------------
@@ -390,14 +460,14 @@ class BridgeParameters:
                 continue
             found = self._setting(name)
             if found is None:
-                self.log(f"get_parameters: no parameter {name!r} (ros2 param list shows them)")
+                self.node._report("get-unknown", f"get_parameters: no parameter {name!r} (ros2 param list shows them)")
                 continue
             wanted.setdefault(found[0], []).append((index, found[1]))
         for device_id, settings in wanted.items():
             try:
                 read = self.read_settings(device_id, [s for _, s in settings])
             except Refusal as error:
-                self.log(f"get_parameters: ID {device_id}: {error} (value not set)")
+                self.node._report(f"get{device_id}", f"get_parameters: ID {device_id}: {error} (value not set)")
                 continue
             for index, s in settings:
                 values[index] = to_value(read[s.name], setting_kind(s))
@@ -501,6 +571,7 @@ class BridgeParameters:
             if s.command is None:
                 raise Refusal(f"{name} is read-only: the controller's own ({s.doc})")
             writes.append((parameter, found, setting_wire_value(s, parameter.value, name)))
+        check_base(self.node, changes)
         return changes, writes
 
     def _apply(self, changes: list[tuple[BridgeParameter, Any]]) -> list[str]:
