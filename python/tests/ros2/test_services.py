@@ -261,6 +261,24 @@ def test_the_mobile_bases_limits_are_parameters_checked_together() -> None:
         assert stop_after.successful and base.config.timeout == 1.5
 
 
+def test_a_handler_that_breaks_answers_with_the_error_in_its_own_fields(monkeypatch: pytest.MonkeyPatch) -> None:
+    with virtual_node() as (_, node, services, lines):
+
+        def broken(*_: Any) -> Any:
+            raise RuntimeError("bug")
+
+        monkeypatch.setattr(node.motors[1].procedures, "set", broken)
+        monkeypatch.setattr(node.motors[1].procedures, "setting_from", broken)
+        wrote = services.call("write_setting", i.WriteSetting_Request(1, "ratio", "10"))
+        assert not wrote.success and "bug" in wrote.message
+        for spec in bridge_services(node, "nurimc", "/svc"):  # every handler, given a request it cannot take
+            answer = spec.handler(None)
+            assert isinstance(answer, spec.response), spec.name
+        got = services.specs["get_parameters"]
+        assert got.handler(i.GetParameters_Request(["motor_1.ratio"])).values[0].type == i.PARAMETER_NOT_SET
+        assert any("internal error in the bridge" in line for line in lines), lines
+
+
 # -- nurimc_msgs services --------------------------------------------------------------------
 
 
@@ -319,6 +337,7 @@ def test_reset_position_makes_every_motor_read_zero() -> None:
         assert answer.success and answer.message == "ID 1: 0° (read back); ID 2: 0° (read back)", answer.message
         readings = node.service.run(lambda bus: [node.motors[n].read_state() for n in (1, 2)])
         assert all(abs(r.device_position) < 1.0 and abs(r.position) < 1.0 for r in readings)
+        assert all(j.state is not None and abs(j.state.position) < 1.0 for j in node.bridge.joints)  # at once
         one = services.call("reset_position", i.ResetPosition_Request(2))
         assert one.success and one.message.startswith("ID 2: 0°")
         other = services.call("reset_position", i.ResetPosition_Request(7))

@@ -20,6 +20,8 @@ with the outage (success false, the message says the port is lost), never with a
 
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
 import math
 import threading
 import time
@@ -30,13 +32,14 @@ from typing import TYPE_CHECKING, Any
 from cyclonedds.idl import IdlStruct
 
 from ..cli.zero_cmd import ZERO_WAIT, zero_here
+from ..procedures.motor import MotorState
 from ..procedures.settings import SETTINGS, setting
 from ..procedures.stop import StopResult
 from ..protocol.host import STOP_VERIFY
 from ..service.core import COMMAND
 from . import interfaces as i
 from .names import topic
-from .parameters import BridgeParameters, Refusal, bus_job, port_lost
+from .parameters import APPLY_TIMEOUT, BridgeParameters, Refusal, bus_job, port_lost
 
 if TYPE_CHECKING:
     from .node import BridgeNode
@@ -93,18 +96,28 @@ def guarded(handler: Callable[[Any], Any], response: type[IdlStruct], node: Brid
         except Exception as error:
             text = f"internal error in the bridge: {type(error).__name__}: {error}"
             node._log(f"service {response.__name__.removesuffix('_Response')}: {text}")
-            return failure(response, text)
+            return failure(response, request, text)
 
     return handle
 
 
-def failure(response: type[IdlStruct], text: str) -> Any:
-    """A response saying `text` failed, in whichever fields the type has."""
+def failure(response: type[IdlStruct], request: Any, text: str) -> Any:
+    """A response saying `text` failed, in whichever fields the type has: one entry per name or
+    parameter asked where the response has a list (NOT_SET values and types, refused results)."""
     answer: Any = response()
+    names = list(getattr(request, "names", []))
     if hasattr(answer, "success"):
         answer.success, answer.message = False, text
     elif hasattr(answer, "result") and isinstance(answer.result, i.SetParametersResult):
         answer.result = i.SetParametersResult(False, text)
+    elif hasattr(answer, "results"):
+        answer.results = [i.SetParametersResult(False, text) for _ in getattr(request, "parameters", [])]
+    elif hasattr(answer, "values"):
+        answer.values = [i.ParameterValue() for _ in names]
+    elif hasattr(answer, "types"):
+        answer.types = [i.PARAMETER_NOT_SET for _ in names]
+    elif hasattr(answer, "descriptors"):
+        answer.descriptors = [i.ParameterDescriptor(name=n, description=text) for n in names]
     return answer
 
 
@@ -172,6 +185,7 @@ class ControllerServices:
             for device_id in ids:
                 procedures = self.node.motors[device_id].procedures
                 state = bus_job(self.node, zero_here(self.node.bus.core, procedures), COMMAND)
+                self._take_reading(device_id, state)
                 if abs(state.device_position) < 1.0:
                     lines.append(f"ID {device_id}: 0° (read back)")
                 else:
@@ -182,6 +196,17 @@ class ControllerServices:
         except Refusal as error:
             return i.ResetPosition_Response(False, "; ".join([*lines, str(error)]))
         return i.ResetPosition_Response(good, "; ".join(lines))
+
+    def _take_reading(self, device_id: int, state: MotorState) -> None:
+        """The reading after a reset becomes the joint's latest at once (on the node's thread), so a
+        position command that comes before the next poll already means the new zero."""
+        joint = next(j for j in self.node.bridge.joints if j.id == device_id)
+
+        def take() -> None:
+            joint.state = state
+
+        with contextlib.suppress(concurrent.futures.TimeoutError):  # the next poll brings it anyway
+            self.node.run_on_bus_thread(take, APPLY_TIMEOUT)
 
     def estop(self, request: i.Trigger_Request) -> i.Trigger_Response:
         """The bridge's estop, as `true` on its estop topic: every queued command dropped, control off
