@@ -348,7 +348,7 @@ def test_reset_position_makes_every_motor_read_zero() -> None:
 
 
 @pytest.mark.realtime
-def test_the_estop_service_stops_every_motor_with_its_read_back() -> None:
+def test_a_running_node_takes_a_rate_and_its_estop_service_stops_every_motor_with_read_back() -> None:
     sim, bus = sim_bus([1, 2], baud=115200, clock=REAL_CLOCK)
     lines: list[str] = []
     node = BridgeNode(
@@ -361,6 +361,9 @@ def test_the_estop_service_stops_every_motor_with_its_read_back() -> None:
         assert not answer.success and "not running" in answer.message
         node.start()
         wait_for(lambda: node.published >= 3, "readings")
+        rate, timeout = services.set(rate=10.0, command_timeout=0.0)  # made on the running node's thread
+        assert rate.successful and timeout.successful and "rate = 10.0" in rate.reason, rate.reason
+        assert node.subscription is not None and node.subscription.rate_hz == 10.0
         node._push("velocity", [1.0, 1.0])
         wait_for(lambda: all(j.mode == "velocity" for j in node.bridge.joints), "both turning")
         wait_for(lambda: all(sim.controller(n).settings.control == 0 for n in (1, 2)), "control on")

@@ -155,7 +155,7 @@ class BridgeNode:
         """Carry out `change` on the node's thread (between two commands) and return its result; at
         once when that thread is not running. TimeoutError when it was not done within `timeout`
         (an estop dropped it, or the thread is stuck): services.py answers with that."""
-        if self._thread is None or not self._thread.is_alive():
+        if self._thread is None or not self._thread.is_alive() or self._thread is threading.current_thread():
             return change()
         future: Future[T] = Future()
 
