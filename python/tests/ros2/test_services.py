@@ -236,6 +236,8 @@ def test_a_controller_setting_parameter_is_written_and_read_back_on_the_controll
         before = sim.controller(1).settings.position_kp
         (high,) = services.set(motor_1__position_kp=300)
         assert not high.successful and "out of range 1..254" in high.reason
+        (fraction,) = services.set(motor_1__position_kp=7.5)
+        assert not fraction.successful and "wrong type double; give an integer" in fraction.reason
         (wrong,) = services.set(motor_1__direction=1)
         assert not wrong.successful and "give a string: ccw or cw" in wrong.reason
         (firmware,) = services.set(motor_1__firmware=3)
@@ -244,9 +246,8 @@ def test_a_controller_setting_parameter_is_written_and_read_back_on_the_controll
 
 
 def test_the_mobile_bases_limits_are_parameters_checked_together() -> None:
-    with virtual_node() as (_, node, _, _):
-        base = diffdrive.attach(node, diffdrive.BaseConfig(1, 2, 0.05, 0.3))
-        services = Services(bridge_services(node, "nurimc", "/svc"))
+    with virtual_node() as (_, node, services, _):
+        base = diffdrive.attach(node, diffdrive.BaseConfig(1, 2, 0.05, 0.3))  # after bridge_services: seen too
         listed = services.call("list_parameters", i.ListParameters_Request(["base"], 0)).result
         assert "base.max_linear" in listed.names and "base.wheel_radius" in listed.names
         (slower,) = services.set(base__max_linear=0.5)

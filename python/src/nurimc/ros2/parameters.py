@@ -133,7 +133,8 @@ def _number(name: str, value: i.ParameterValue, kind: int) -> float:
         if not math.isfinite(number):
             raise Refusal(f"{name}: {number} is not a number")
         return number
-    raise Refusal(f"{name}: wrong type {_type_name(value.type)}; give a {_type_name(kind)}")
+    wanted = _type_name(kind)
+    raise Refusal(f"{name}: wrong type {_type_name(value.type)}; give {'an' if wanted[0] in 'aeiou' else 'a'} {wanted}")
 
 
 # -- the bridge's own parameters ------------------------------------------------------------
@@ -407,7 +408,16 @@ class BridgeParameters:
     def __init__(self, node: BridgeNode, node_path: str = "/nurimc") -> None:
         self.node = node
         self.node_path = node_path  # "/arm/nurimc": said in refusals (ros2 param list /arm/nurimc)
-        self.own = {p.name: p for p in bridge_parameters(node)}
+        self._own: dict[str, BridgeParameter] = {}
+        self._for_base: Any = False
+
+    @property
+    def own(self) -> dict[str, BridgeParameter]:
+        """The bridge's own parameters (with the base's once diffdrive.attach gave the node one)."""
+        if self._for_base is not self.node.base:
+            self._own = {p.name: p for p in bridge_parameters(self.node)}
+            self._for_base = self.node.base
+        return self._own
 
     # -- names -------------------------------------------------------------------------
     def setting_names(self) -> list[str]:
