@@ -285,6 +285,7 @@ def ros2(
         control_topics.attach(node, control_commands, control_states)
         if base is not None:
             diffdrive.attach(node, base, stamped, odom_tf=not no_odom_tf)
+        serve_services(participant, node, node_name, ns)
         if not isinstance(bus, AttachedBus):  # our own port (not attached to a holder): shared with others
             holding = share_bus(node, bus, o, motor_list)  # docs/service.md
         stop = install_stop_signals()
@@ -318,6 +319,18 @@ def ros2(
 
 
 DDS_STACKS = ("rtps", "cyclone")
+
+
+def serve_services(participant: Any, node: Any, name: str, ns: str) -> None:
+    """The bridge's parameters and services (ros2/parameters.py, ros2/services.py), on our RTPS
+    participant: Cyclone DDS's Python binding cannot answer a ROS 2 client (docs/ros2.md)."""
+    if not hasattr(participant, "service"):
+        node._log("note: --dds cyclone serves no ROS 2 parameters or services (use --dds rtps, the default)")
+        return
+    from ..ros2.services import bridge_services
+
+    for spec in bridge_services(node, name, ns):
+        participant.service(spec.name, spec.request, spec.response, spec.handler)
 
 
 def open_participant(stack: str, domain: int) -> Any:

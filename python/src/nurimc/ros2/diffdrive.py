@@ -303,4 +303,5 @@ def attach(node: Any, config: BaseConfig, stamped: bool = False, odom_tf: bool =
         return base.tick(now)
 
     node.after_read.append(after_read)
+    node.base = base  # its limits are parameters of the node (parameters.py)
     return base

@@ -20,7 +20,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Protocol
+from concurrent.futures import Future
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..drivers.sync import Bus
 from ..errors import NurimcError, PortLost
@@ -46,6 +47,8 @@ DIAGNOSTICS_PERIOD = 1.0  # s: /diagnostics at 1 Hz
 DISCOVERY_WAIT = 0.5  # s to listen for another bridge on our topics before starting
 FIRST_READING_RETRY = 1.0  # s between two tries of the first reading when no motor answers
 LOG_REPEAT = 2.0  # s between two reports of the same kind of trouble on stderr
+
+T = TypeVar("T")
 
 
 class NamespaceTaken(NurimcError):
@@ -127,6 +130,8 @@ class BridgeNode:
         self.on_stop: list[Callable[[StopResult], None]] = []  # given the result of each estop
         #: given each round of readings (ID -> state or error): the bus service shares them with attached programs
         self.on_states: list[Callable[[dict[int, MotorState | Exception]], None]] = []
+        #: the mobile base (diffdrive.attach), if any: its limits are parameters (parameters.py)
+        self.base: Any = None
         #: the node in the ROS 2 graph (announced at start, when every endpoint exists)
         self.graph = participant.node_announcer(node_name, namespace) if node_name else None
 
@@ -145,6 +150,36 @@ class BridgeNode:
         """Queue work (from a DDS thread) that returns the actions to carry out; an estop drops it.
         Work with a key replaces queued work of the same key (latest wins: coalesce.py)."""
         self._push("call", work, key)
+
+    def run_on_bus_thread(self, change: Callable[[], T], timeout: float) -> T:
+        """Carry out `change` on the node's thread (between two commands) and return its result; at
+        once when that thread is not running. TimeoutError when it was not done within `timeout`
+        (an estop dropped it, or the thread is stuck): services.py answers with that."""
+        if self._thread is None or not self._thread.is_alive() or self._thread is threading.current_thread():
+            return change()
+        future: Future[T] = Future()
+
+        def work(_now: float) -> list[Action]:
+            try:
+                future.set_result(change())
+            except Exception as error:  # handed to the caller (a service's transport thread)
+                future.set_exception(error)
+            return []
+
+        self.call_on_bus_thread(work)
+        return future.result(timeout)
+
+    def set_rate(self, rate: float) -> None:
+        """A new --rate at run time (the `rate` parameter): the service's poll is subscribed again
+        at the new rate (with --broadcast-read the node's own reads follow the new period)."""
+        if rate < 0 or not math.isfinite(rate):
+            raise ValueError(f"rate {rate}: give readings per second >= 0 (0 = as fast as the bus allows)")
+        self.rate = rate
+        self.period = 1.0 / rate if rate else 0.0
+        if self.subscription is not None:
+            self.subscription.cancel()
+            self.subscription = None
+            self.subscribe()
 
     def _push(self, kind: str, value: Any, key: str | None = None) -> None:
         with self._wake:
@@ -395,7 +430,7 @@ class BridgeNode:
             self._log(f"estop: ID {ids_text} did not confirm control off within {STOP_VERIFY} s")
         if result.stopped:
             self._log(f"estop: control off confirmed on ID {', '.join(map(str, result.stopped))}")
-        for told in self.on_stop:  # the programs attached to this port are told (docs/service.md)
+        for told in list(self.on_stop):  # the programs attached to this port are told (docs/service.md)
             told(result)
         return result
 
