@@ -112,6 +112,27 @@ def test_arm_with_a_real_ros2_node(release: str) -> None:
     assert seen["diagnostics_bus"]["estop_latched"] == "true", seen
 
 
+@pytest.mark.parametrize("release", RELEASES)
+def test_parameters_and_services_from_a_real_rclpy_client(release: str) -> None:
+    """rcl_interfaces' parameter services and std_srvs/Trigger, called as a user's rclpy node calls them."""
+    ns = unique(f"svc_{release}")
+    bridge = BridgeProcess(ns, "1,2")
+    try:
+        seen = run_probe(release, "services", ns)
+    finally:
+        assert bridge.stop() == 0, "".join(bridge.stderr)
+    assert {"rate", "ids", "joint_names", "motor_1.position_kp", "motor_2.speed_kp"} <= set(seen["names"]), seen
+    assert seen["rate"] == 50.0 and seen["ids"] == [1, 2], seen
+    assert seen["set_rate"][0] is True and seen["rate_after"] == 25.0, seen
+    assert seen["set_rate_too_high"][0] is False and "rate" in seen["set_rate_too_high"][1], seen
+    assert seen["rate_after_refusal"] == 25.0, seen  # nothing applied
+    assert seen["set_ids"][0] is False and "--ids" in seen["set_ids"][1], seen
+    assert seen["rate_range"] is not None and seen["rate_range"][0] <= 25.0 <= seen["rate_range"][1], seen
+    assert seen["set_kp"] == [True, ""] or seen["set_kp"][0] is True, seen
+    assert seen["kp_after"] == 77 and seen["kp_before"] != 77, seen  # read back from the controller
+    assert seen["estop"] is not None and seen["estop"][0] is True, seen
+
+
 def integrate(wheels: list[list[float]]) -> tuple[float, float, float]:
     """The base's pose from its wheel angles (left inverted), integrated independently of the bridge."""
     x = y = yaw = 0.0
@@ -160,3 +181,40 @@ def test_mobile_base_drives_a_square_with_a_real_ros2_node(release: str) -> None
     assert int(seen["base_status"]["command_timeouts"]) >= 1, seen["base_status"]
     # /tf carries odom -> base_link
     assert tf and tf[-1].transforms[0].header.frame_id == "odom" and tf[-1].transforms[0].child_frame_id == "base_link"
+
+
+@pytest.mark.parametrize("release", RELEASES)
+def test_the_first_command_after_a_bridge_restart_is_as_fast_as_on_a_fresh_bridge(release: str) -> None:
+    """A node that outlives the bridge publishes one position command to the first bridge, then one to
+    its successor: the second reaches the joint within 0.2 s of the first's time (issue 36; it took
+    3 s when the bridge's DDS was Cyclone's, docs/ros2.md "Restarts and start-up")."""
+    ns = unique(f"restart_{release}")
+    env = {
+        **os.environ,
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "FASTDDS_DEFAULT_PROFILES_FILE": str(HERE / "rclpy_node" / "fastdds_loopback.xml"),
+        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+    }
+    env.pop("_ROS_WHEELS_BOOTSTRAP_COMPLETE", None)
+    bridge = BridgeProcess(ns, "1")
+    probe = subprocess.Popen(
+        [str(ros_python(release)), str(HERE / "rclpy_node" / "probe.py"), "restart", ns],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        assert probe.stdout is not None
+        assert probe.stdout.readline().strip() == "phase 0 done"
+        assert bridge.stop() == 0, "".join(bridge.stderr)
+        bridge = BridgeProcess(ns, "1")
+        out, err = probe.communicate(timeout=90)
+    finally:
+        if probe.poll() is None:
+            probe.kill()
+        bridge.stop()
+    seen = json.loads(out.strip().splitlines()[-1])
+    fresh, restarted = seen["reach_s"]
+    assert fresh is not None and restarted is not None, (seen, err[-2000:])
+    assert restarted <= fresh + 0.2, seen

@@ -243,11 +243,74 @@ def restart(probe: Probe) -> dict:
     return out
 
 
+def call(probe: Probe, service_type, name: str, request, timeout: float = 10.0):
+    """One service call as a user's node makes it: wait for the service, call, spin until the answer."""
+    client = probe.node.create_client(service_type, name)
+    started = time.monotonic()
+    if not client.wait_for_service(timeout_sec=15):
+        return None, f"{name}: not available within 15 s"
+    future = client.call_async(request)
+    deadline = time.monotonic() + timeout
+    while not future.done() and time.monotonic() < deadline:
+        rclpy.spin_once(probe.node, timeout_sec=0.05)
+    probe.node.destroy_client(client)
+    if not future.done():
+        return None, f"{name}: no answer within {timeout} s"
+    return future.result(), round(time.monotonic() - started, 3)
+
+
+def services(probe: Probe) -> dict:
+    """The bridge's parameters (rcl_interfaces, as rclpy's parameter clients call them) and its estop
+    service (std_srvs/Trigger): list, get, set in range, set out of range, a controller setting."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
+    from std_srvs.srv import Trigger
+
+    node_path = f"{probe.ns}/nurimc"
+    out: dict = {}
+    listed, out["list_time"] = call(probe, ListParameters, f"{node_path}/list_parameters", ListParameters.Request())
+    out["names"] = list(listed.result.names) if listed else []
+    got, _ = call(probe, GetParameters, f"{node_path}/get_parameters", GetParameters.Request(names=["rate", "ids"]))
+    out["rate"] = got.values[0].double_value if got else None
+    out["ids"] = list(got.values[1].integer_array_value) if got else None
+
+    def set_one(name: str, value: ParameterValue):
+        answer, _ = call(
+            probe, SetParameters, f"{node_path}/set_parameters",
+            SetParameters.Request(parameters=[Parameter(name=name, value=value)]),
+        )
+        return (answer.results[0].successful, answer.results[0].reason) if answer else (None, "no answer")
+
+    out["set_rate"] = set_one("rate", ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=25.0))
+    got, _ = call(probe, GetParameters, f"{node_path}/get_parameters", GetParameters.Request(names=["rate"]))
+    out["rate_after"] = got.values[0].double_value if got else None
+    out["set_rate_too_high"] = set_one("rate", ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=1e9))
+    got, _ = call(probe, GetParameters, f"{node_path}/get_parameters", GetParameters.Request(names=["rate"]))
+    out["rate_after_refusal"] = got.values[0].double_value if got else None
+    out["set_ids"] = set_one("ids", ParameterValue(type=ParameterType.PARAMETER_INTEGER_ARRAY, integer_array_value=[3]))
+    described, _ = call(
+        probe, DescribeParameters, f"{node_path}/describe_parameters", DescribeParameters.Request(names=["rate"])
+    )
+    if described:
+        d = described.descriptors[0]
+        out["rate_range"] = [d.floating_point_range[0].from_value, d.floating_point_range[0].to_value] if d.floating_point_range else None
+    setting = "motor_1.position_kp"
+    got, _ = call(probe, GetParameters, f"{node_path}/get_parameters", GetParameters.Request(names=[setting]))
+    out["kp_before"] = got.values[0].integer_value if got else None
+    out["set_kp"] = set_one(setting, ParameterValue(type=ParameterType.PARAMETER_INTEGER, integer_value=77))
+    got, _ = call(probe, GetParameters, f"{node_path}/get_parameters", GetParameters.Request(names=[setting]))
+    out["kp_after"] = got.values[0].integer_value if got else None
+    out["kp_type"] = got.values[0].type if got else None
+    stopped, out["estop_time"] = call(probe, Trigger, f"{node_path}/estop", Trigger.Request())
+    out["estop"] = [stopped.success, stopped.message] if stopped else None
+    return out
+
+
 def main() -> None:
     scenario, namespace = sys.argv[1], sys.argv[2]
     probe = Probe(namespace)
     try:
-        result = {"arm": arm, "base": base, "restart": restart}[scenario](probe)
+        result = {"arm": arm, "base": base, "restart": restart, "services": services}[scenario](probe)
     finally:
         probe.node.destroy_node()
         rclpy.shutdown()
