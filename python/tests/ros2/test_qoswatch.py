@@ -60,3 +60,28 @@ def test_a_reliable_publisher_is_not_reported() -> None:
     finally:
         other.close()
         bridge.close()
+
+
+def test_our_rtps_participant_names_a_best_effort_command_publisher_once() -> None:
+    """The same on the bridge's default DDS (ros2/rtps/): told by discovery, named from ros_discovery_info."""
+    from nurimc.ros2.rtps.topics import RtpsParticipant
+
+    topic = f"/qos_rtps_{time.monotonic_ns() % 10**6}/position_commands"
+    bridge, teleop = RtpsParticipant(), Participant()
+    lines: list[str] = []
+    watch = bridge.qos_watch(lines.append)
+    try:
+        bridge.reader(topic, msgs.Float64MultiArray, lambda reader: reader.take())
+        announcer = NodeAnnouncer(teleop, "teleop", "/robot")
+        writer = DataWriter(
+            teleop.participant, teleop.topic(topic, msgs.Float64MultiArray), qos=Qos(Policy.Reliability.BestEffort)
+        )
+        teleop.endpoints.append((topic, "", writer))
+        announcer.announce()
+        assert wait_until(lambda: lines, 10), "nothing logged"
+        assert lines[0].startswith(f"warning: node /robot/teleop publishes {topic} best effort;"), lines
+        assert watch.check(topic) == []
+        assert len(lines) == 1
+    finally:
+        teleop.close()
+        bridge.close()
