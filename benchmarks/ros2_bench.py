@@ -99,15 +99,23 @@ def simulator(ids: list[int], baud: int) -> Iterator[str]:
         yield ready_line(sim).split("ready:", 1)[1].strip()
 
 
-def joint_states_rate(motors: int, baud: int, seconds: float, broadcast: bool = True) -> dict[str, object]:
+def process_cpu(pid: int) -> float:
+    """CPU seconds (user + system) a process has used so far, from /proc."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def joint_states_rate(
+    motors: int, baud: int, seconds: float, broadcast: bool = True, dds: str = "rtps"
+) -> dict[str, object]:
     ids = list(range(1, motors + 1))
-    ns = f"/bench{motors}{'b' if broadcast else 's'}"
+    ns = f"/bench{motors}{'b' if broadcast else 's'}{dds}"
     peer = Peer()
     states = peer.subscribe(f"{ns}/joint_states", JointState)
     with simulator(ids, baud) as pty:
         argv = [NURIMC, "--port", pty, "--baud", str(baud), "ros2", "--ids", ",".join(map(str, ids))]
         read = ["--broadcast-read"] if broadcast else []
-        with started([*argv, "--namespace", ns, "--rate", "0", *read]) as bridge:
+        with started([*argv, "--namespace", ns, "--rate", "0", "--dds", dds, *read]) as bridge:
             ready_line(bridge)
             deadline = time.monotonic() + 10
             while not states.poll() and time.monotonic() < deadline:
@@ -115,11 +123,13 @@ def joint_states_rate(motors: int, baud: int, seconds: float, broadcast: bool = 
             time.sleep(0.5)  # warm up
             before = len(states.poll())
             start = time.monotonic()
+            cpu_before = process_cpu(bridge.pid)
             while time.monotonic() - start < seconds:
                 states.poll()  # often: the reader keeps the last 10 only (ROS 2's default QoS)
                 time.sleep(0.005)
             window = states.poll()[before:]
             elapsed = time.monotonic() - start
+            cpu = process_cpu(bridge.pid) - cpu_before
     peer.close()
     received = len(window)
     complete = sum(1 for s in window if len(s.name) == motors)
@@ -135,6 +145,9 @@ def joint_states_rate(motors: int, baud: int, seconds: float, broadcast: bool = 
         "complete_per_s": round(complete / elapsed, 1),
         "fraction_complete": round(complete / received, 4),
         "seconds": round(elapsed, 2),
+        "dds": dds,
+        "bridge_cpu_fraction": round(cpu / elapsed, 3),  # of one core
+        "bridge_cpu_ms_per_joint_state": round(1000 * cpu / max(received, 1), 3),
     }
 
 
@@ -280,6 +293,11 @@ def main() -> None:
         "joint_states_8_motors_1Mbps": joint_states_rate(8, 1_000_000, seconds),
         "joint_states_2_motors_115200_sequential": joint_states_rate(2, 115_200, seconds, broadcast=False),
         "joint_states_8_motors_1Mbps_sequential": joint_states_rate(8, 1_000_000, seconds, broadcast=False),
+        # the same bridge on Cyclone DDS (--dds cyclone), side by side in this run
+        "joint_states_8_motors_1Mbps_cyclone": joint_states_rate(8, 1_000_000, seconds, dds="cyclone"),
+        "joint_states_8_motors_1Mbps_sequential_cyclone": joint_states_rate(
+            8, 1_000_000, seconds, broadcast=False, dds="cyclone"
+        ),
         "command_to_wire_latency": command_latency(200 if quick else 1000),
         **rclpy_results(quick),
     }
