@@ -315,10 +315,13 @@ def test_mobile_base_takes_twist_stamped_when_asked(peer: Peer) -> None:
         assert bridge.stop() == 0, "".join(bridge.stderr)
 
 
+BRIDGE_FOR_A_SECOND = [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1"]
+BRIDGE_FOR_A_SECOND += ["--seconds", "1"]
+
+
 def test_a_configuration_cyclone_refuses_is_one_line() -> None:
     proc = subprocess.run(
-        [NURIMC, "--port", f"sim://?ids=1,&baud={BAUD}", "--baud", str(BAUD), "ros2", "--ids", "1", "--seconds", "1"]
-        + ["--dds", "cyclone"],
+        [*BRIDGE_FOR_A_SECOND, "--dds", "cyclone"],
         capture_output=True,
         text=True,
         timeout=30,

@@ -15,6 +15,7 @@ takes about 75 s; the two rclpy tests about 35 s each (`NURIMC_NETNS_LATE` short
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -76,7 +77,12 @@ def environment(**extra: str) -> dict[str, str]:
 
 
 def start_bridge(ns: str, namespace: str, peers: list[str]) -> subprocess.Popen[str]:
-    env = environment(ROS_AUTOMATIC_DISCOVERY_RANGE="OFF", ROS_STATIC_PEERS=";".join(peers))
+    """A bridge as the static-peers recipe runs it (no multicast); with no peers, as the multicast
+    LAN recipe runs it (ROS 2's defaults: nothing set)."""
+    if peers:
+        env = environment(ROS_AUTOMATIC_DISCOVERY_RANGE="OFF", ROS_STATIC_PEERS=";".join(peers))
+    else:
+        env = {k: v for k, v in environment().items() if k != "ROS_AUTOMATIC_DISCOVERY_RANGE"}
     argv = ["ip", "netns", "exec", ns, NURIMC, "--port", "sim://?ids=1", "ros2", "--ids", "1", "--namespace", namespace]
     process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     assert process.stdout is not None and process.stderr is not None
@@ -135,6 +141,25 @@ def test_a_fast_dds_node_with_static_peers_finds_both_bridges(machines: list[str
         stop(bridges)
 
 
+def test_on_a_multicast_lan_a_node_with_ros_defaults_finds_both_bridges(machines: list[str]) -> None:
+    """The recipe "a multicast LAN": nothing set anywhere (ROS 2's defaults); a real rclpy node
+    (Kilted, Fast DDS) starting after the bridges finds both and moves a joint on each."""
+    from .test_rclpy import ros_python
+
+    one, two, laptop = machines
+    for ns in machines:  # a LAN's hosts have a route for multicast (here: no default route at all)
+        ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", "eth0")
+    bridges = [start_bridge(one, "/left", []), start_bridge(two, "/right", [])]
+    try:
+        script = str(Path(__file__).parent / "rclpy_node" / "late.py")
+        seen = run_laptop(
+            laptop, [str(ros_python("kilted")), script, "/left,/right"], RMW_IMPLEMENTATION="rmw_fastrtps_cpp"
+        )
+        check(seen)
+    finally:
+        stop(bridges)
+
+
 def stop(bridges: list[subprocess.Popen[str]]) -> None:
     for bridge in bridges:
         bridge.send_signal(2)
@@ -144,14 +169,30 @@ def stop(bridges: list[subprocess.Popen[str]]) -> None:
             bridge.kill()
 
 
-def test_a_laptop_joining_60_s_later_finds_both_bridges(machines: list[str]) -> None:
+def test_laptops_joining_60_s_later_find_both_bridges(machines: list[str]) -> None:
+    """The recipe "a laptop joining late": the bridges list the laptop among their peers; the laptop
+    is given nothing. One after the other, 60 s and more after the bridges: a real rclpy node of
+    each release (Fast DDS, ROS 2's default: SUBNET range, no peers) and a Cyclone DDS node with
+    multicast off and no peers; each must find both bridges within 5 s and move a joint."""
+    from .test_rclpy import ros_python
+
     one, two, laptop = machines
     bridges = [
         start_bridge(one, "/left", [f"{SUBNET}.2", f"{SUBNET}.3"]),
         start_bridge(two, "/right", [f"{SUBNET}.1", f"{SUBNET}.3"]),
     ]
+    script = str(Path(__file__).parent / "rclpy_node" / "late.py")
     try:
         time.sleep(LATE)  # the laptop is switched on a minute later (the point of the test, not a wait for a state)
+        # a move each (the simulated encoder's steps are 22.5°: targets on them), then ours to π/2
+        for release, target in (("jazzy", math.pi / 4), ("kilted", 3 * math.pi / 8)):
+            seen = run_laptop(
+                laptop,
+                [str(ros_python(release)), script, "/left,/right", repr(target)],
+                ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET",
+                RMW_IMPLEMENTATION="rmw_fastrtps_cpp",
+            )
+            check(seen)
         seen = run_laptop(
             laptop,
             [sys.executable, "-m", "tests.ros2.late_node", "/left,/right"],

@@ -1,7 +1,7 @@
-"""A real ROS 2 node (rclpy, Fast DDS) on a laptop that joins late: `python late.py NS1,NS2`.
+"""A real ROS 2 node (rclpy, Fast DDS) on a laptop that joins late: `python late.py NS1,NS2 [TARGET]`.
 
 Prints one JSON line: per namespace, seconds until its first joint_states, and whether a position
-command (published every 0.2 s until it shows) moved the joint to π/2.
+command (published every 0.2 s until it shows) moved the joint to TARGET rad (default π/2).
 """
 
 # This file runs under the ROS 2 wheels' interpreter; nurimc's type checker does not see rclpy.
@@ -18,6 +18,7 @@ from std_msgs.msg import Float64MultiArray
 
 def main() -> None:
     namespaces = sys.argv[1].split(",")
+    target = float(sys.argv[2]) if len(sys.argv) > 2 else math.pi / 2
     start = time.monotonic()
     rclpy.init()
     node = rclpy.create_node("laptop")
@@ -41,10 +42,10 @@ def main() -> None:
         next_send = 0.0
         while found[ns] is not None and time.monotonic() < deadline:
             if time.monotonic() >= next_send:
-                publishers[ns].publish(Float64MultiArray(data=[math.pi / 2]))
+                publishers[ns].publish(Float64MultiArray(data=[target]))
                 next_send = time.monotonic() + 0.2
             rclpy.spin_once(node, timeout_sec=0.05)
-            if ns in last and abs(last[ns].position[0] - math.pi / 2) <= 0.002:
+            if ns in last and abs(last[ns].position[0] - target) <= 0.002:
                 moved[ns] = True
                 break
     node.destroy_node()

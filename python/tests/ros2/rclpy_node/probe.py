@@ -276,7 +276,9 @@ def services(probe: Probe) -> dict:
 
     def set_one(name: str, value: ParameterValue):
         answer, _ = call(
-            probe, SetParameters, f"{node_path}/set_parameters",
+            probe,
+            SetParameters,
+            f"{node_path}/set_parameters",
             SetParameters.Request(parameters=[Parameter(name=name, value=value)]),
         )
         return (answer.results[0].successful, answer.results[0].reason) if answer else (None, "no answer")
@@ -293,7 +295,11 @@ def services(probe: Probe) -> dict:
     )
     if described:
         d = described.descriptors[0]
-        out["rate_range"] = [d.floating_point_range[0].from_value, d.floating_point_range[0].to_value] if d.floating_point_range else None
+        out["rate_range"] = (
+            [d.floating_point_range[0].from_value, d.floating_point_range[0].to_value]
+            if d.floating_point_range
+            else None
+        )
     setting = "motor_1.position_kp"
     got, _ = call(probe, GetParameters, f"{node_path}/get_parameters", GetParameters.Request(names=[setting]))
     out["kp_before"] = got.values[0].integer_value if got else None

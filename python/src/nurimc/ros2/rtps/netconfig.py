@@ -57,13 +57,14 @@ def interface_address(name: str) -> str | None:
 
 
 def local_addresses() -> list[str]:
-    """Every IPv4 address of this host's interfaces, loopback last."""
+    """Every IPv4 address of this host's interfaces but loopback (announced to other machines, a
+    127.0.0.1 locator would point them at themselves); loopback only when there is nothing else."""
     found = []
     for _, name in socket.if_nameindex():
         address = interface_address(name)
-        if address and address not in found:
+        if address and address not in found and not address.startswith("127."):
             found.append(address)
-    return sorted(found, key=lambda a: a.startswith("127.")) or ["127.0.0.1"]
+    return found or ["127.0.0.1"]
 
 
 def _user_xml(text: str) -> str:

@@ -82,7 +82,7 @@ class Participant:
             for s in (meta, user):
                 s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
             if self.config.multicast:
-                iface = socket.inet_aton(self.config.address or "0.0.0.0")
+                iface = socket.inet_aton(self.config.address or local_addresses()[0])
                 meta.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, iface)
                 meta.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)
                 meta.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 1)
@@ -94,15 +94,26 @@ class Participant:
         )
 
     def _bind_multicast(self) -> socket.socket | None:
+        """The discovery multicast group, joined on the chosen interface or on every one (as Cyclone
+        DDS does): a machine without a default route still takes part on its LAN."""
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind((MULTICAST_GROUP, self.config.meta_multicast_port))
-            iface = socket.inet_aton(self.config.address or "0.0.0.0")
-            s.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, socket.inet_aton(MULTICAST_GROUP) + iface)
         except OSError:
             s.close()
-            return None  # no multicast here (no route): unicast peers still work
+            return None
+        joined = 0
+        for address in [self.config.address] if self.config.address else local_addresses():
+            membership = socket.inet_aton(MULTICAST_GROUP) + socket.inet_aton(address)
+            try:
+                s.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, membership)
+                joined += 1
+            except OSError:
+                continue  # an interface without multicast
+        if not joined:
+            s.close()
+            return None  # no multicast here: unicast peers still work
         return s
 
     def _builtin(self) -> None:
