@@ -288,3 +288,37 @@ def test_callbacks_run_without_the_participant_lock(loopback: None) -> None:
     finally:
         left.close()
         right.close()
+
+
+def test_a_cyclone_dds_client_gets_its_request_header_back(loopback: None) -> None:
+    """rmw_cyclonedds_cpp puts (client id, request number) in band, before the request; the reply
+    must carry the same 16 bytes (and the Fast DDS form, inline, on every reply: test_rclpy.py)."""
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from nurimc.ros2.dds import Participant, default_qos
+
+    from .trigger_types import CycloneTriggerRequest, CycloneTriggerResponse, TriggerRequest, TriggerResponse
+
+    ours = RtpsParticipant()
+    cyclone = Participant()
+    try:
+        ours.service("/t/trigger", TriggerRequest, TriggerResponse, lambda request: TriggerResponse(True, "done"))
+        qos = default_qos()
+        request_topic = Topic(cyclone.participant, "rq/t/triggerRequest", CycloneTriggerRequest, qos=qos)
+        reply_topic = Topic(cyclone.participant, "rr/t/triggerReply", CycloneTriggerResponse, qos=qos)
+        writer = DataWriter(cyclone.participant, request_topic)
+        reader = DataReader(cyclone.participant, reply_topic)
+        wait_for(lambda: writer.get_matched_subscriptions() and reader.get_matched_publications())
+        writer.write(CycloneTriggerRequest(client=0x1234_5678_9ABC_DEF0, number=7))
+        replies = wait_for(lambda: reader.take(N=4))
+        assert (replies[0].client, replies[0].number, replies[0].success, replies[0].message) == (
+            0x1234_5678_9ABC_DEF0,
+            7,
+            True,
+            "done",
+        )
+    finally:
+        cyclone.close()
+        ours.close()
