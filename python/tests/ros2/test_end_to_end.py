@@ -34,8 +34,8 @@ BAUD = 115200
 class BridgeProcess:
     """`nurimc ros2` on its own simulated bus; stopped with SIGINT (as Ctrl-C)."""
 
-    def __init__(self, namespace: str, ids: str, *options: str) -> None:
-        url = f"sim://?ids={ids},&baud={BAUD}"
+    def __init__(self, namespace: str, ids: str, *options: str, sim_ids: str | None = None) -> None:
+        url = f"sim://?ids={sim_ids or ids},&baud={BAUD}"
         argv = [NURIMC, "--port", url, "--baud", str(BAUD), "ros2", "--ids", ids, "--namespace", namespace, *options]
         self.process = subprocess.Popen(
             argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "NO_COLOR": "1"}
@@ -215,6 +215,45 @@ def test_two_bridges_in_two_processes_one_subscriber(peer: Peer) -> None:
     finally:
         codes = [b.stop() for b in bridges]
         assert codes == [0, 0], [("".join(b.stderr)) for b in bridges]
+
+
+def test_a_motor_that_never_answers_costs_the_other_joint_nothing(peer: Peer) -> None:
+    """Two bridges side by side (one busy host, one window): both motors answering, and ID 2 absent
+    from the bus. The healthy joint of the second keeps >= 0.8 of the first's joint_states rate, and
+    every message names both joints in --ids order, the absent one's position NaN (never read)."""
+    healthy, dead = unique("healthy"), unique("dead")
+    healthy_states = peer.subscribe(f"{healthy}/joint_states", JointState)
+    dead_states = peer.subscribe(f"{dead}/joint_states", JointState)
+    bridges = [BridgeProcess(healthy, "1,2"), BridgeProcess(dead, "1,2", sim_ids="1")]
+    try:
+        healthy_states.wait_for(lambda s: True, 10, "healthy joint_states")
+        dead_states.wait_for(lambda s: True, 10, "joint_states with ID 2 absent")
+        wait_lines(bridges[1], "ID 2: no answer; read less often", 10)
+        counts = [len(healthy_states.poll()), len(dead_states.poll())]
+        start = time.monotonic()
+        while time.monotonic() - start < 3.0:  # a measuring window: the rates are the result
+            healthy_states.poll()
+            dead_states.poll()
+            time.sleep(0.005)
+        window = [healthy_states.poll()[counts[0] :], dead_states.poll()[counts[1] :]]
+    finally:
+        codes = [b.stop() for b in bridges]
+        assert codes == [0, 0], [("".join(b.stderr)) for b in bridges]
+    assert len(window[0]) > 30, len(window[0])  # --rate 50 for 3 s, on a busy host
+    assert len(window[1]) >= 0.8 * len(window[0]), (len(window[1]), len(window[0]))
+    assert all(s.name == ["motor_1", "motor_2"] for s in window[1])
+    assert all(math.isnan(s.position[1]) and not math.isnan(s.position[0]) for s in window[1])
+
+
+def wait_lines(bridge: BridgeProcess, text: str, timeout: float) -> list[str]:
+    """The bridge's stderr lines once one contains `text` (AssertionError if none within `timeout` s)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        lines = "".join(bridge.stderr).splitlines()
+        if any(text in line for line in lines):
+            return lines
+        time.sleep(0.02)
+    raise AssertionError(f"no line with {text!r} within {timeout} s: {''.join(bridge.stderr)}")
 
 
 @pytest.mark.parametrize(

@@ -103,6 +103,8 @@ class BridgeNode:
         self.subscription: Subscription | None = None
         self._round: dict[int, MotorState | Exception] = {}  # readings of this round so far (from the service)
         self._round_since: float | None = None  # monotonic time of the round's first reading
+        self._round_full = False  # every motor but the silent ones is in the round: publish now
+        self._silent: set[int] = set()  # motors the service reads less often (not waited for)
         self.joint_states_topic = topic(namespace, "joint_states")
         self.prefix = f"nurimc{'' if namespace == '/' else namespace}"
         self.hardware = f"{bus.transport.url} @ {bus.baudrate} bps"
@@ -285,18 +287,27 @@ class BridgeNode:
             sample.state if sample.state is not None else NurimcError(sample.error or f"ID {sample.id} did not answer")
         )
         with self._wake:
-            if self._round_since is None:
+            first = self._round_since is None
+            if first:
                 self._round_since = time.monotonic()
             self._round[sample.id] = value
-            if len(self._round) >= len(self.motors):
+            if self._round.keys() >= self.motors.keys() - self._silent:
+                self._round_full = True
+            # the first reading of a round sets when it is published (a period later if a motor is
+            # missing: a read under way), so the node's thread must look at the clock again
+            if first or self._round_full:
                 self._wake.notify()
 
     def _service_event(self, event: dict[str, Any]) -> None:
         """A motor that stops answering is read less often by the service (service/backoff.py): said once each way."""
         kind = event.get("type")
         if kind == "no_answer" and event.get("id") in self.motors:
+            with self._wake:  # a round no longer waits for it (its rare error readings join any round)
+                self._silent.add(event["id"])
             self._log(f"ID {event['id']}: no answer; read less often (at most 1 s apart) until it answers")
         elif kind == "answering" and event.get("id") in self.motors:
+            with self._wake:
+                self._silent.discard(event["id"])
             self._log(f"ID {event['id']} answers again")
 
     def _round_due(self, now: float) -> float:
@@ -304,13 +315,13 @@ class BridgeNode:
         it, else (a motor backed off, a read under way) a period after its first reading."""
         if self._round_since is None:
             return math.inf
-        if len(self._round) >= len(self.motors):
+        if self._round_full:
             return now
         return self._round_since + max(self.period, 0.02)
 
     def _take_round(self) -> dict[int, MotorState | Exception]:
         with self._wake:
-            results, self._round, self._round_since = self._round, {}, None
+            results, self._round, self._round_since, self._round_full = self._round, {}, None, False
         for device_id in self.motors:
             if device_id not in results:
                 results[device_id] = NurimcError(f"ID {device_id} is not answering; read again in a moment")
