@@ -152,7 +152,8 @@ def versions(languages: list[str]) -> dict[str, Any]:
         host["serialport"] = package["version"]
     if "c" in languages:
         cache = (C_BUILD / "CMakeCache.txt").read_text()
-        compiler = next((line.split("=", 1)[1] for line in cache.splitlines() if line.startswith("CMAKE_C_COMPILER:")), "")
+        compilers = [line.split("=", 1)[1] for line in cache.splitlines() if line.startswith("CMAKE_C_COMPILER:")]
+        compiler = compilers[0] if compilers else "cc"
         host["cc"] = subprocess.run([compiler, "--version"], capture_output=True, text=True).stdout.split("\n")[0]
     return host
 
