@@ -41,12 +41,22 @@ export function toWire(value: number, scale: number): number {
   return Number(negative ? -steps : steps);
 }
 
+/** The decimal form of each scale seen (a handful): fromWire runs for every field of every answer. */
+const scaleDecimals = new Map<number, { digits: bigint; exponent: number; safeDigits: number }>();
+
 /** Wire integer -> physical value, exact to the scale's decimals. */
 export function fromWire(raw: number, scale: number): number {
-  const s = decimalOf(scale);
+  let s = scaleDecimals.get(scale);
+  if (s === undefined) {
+    const d = decimalOf(scale);
+    s = { ...d, safeDigits: Number(d.digits) };
+    if (scaleDecimals.size < 64) scaleDecimals.set(scale, s);
+  }
   if (s.exponent >= 0 || !Number.isInteger(raw)) {
     return s.exponent >= 0 ? raw * scale : Number((raw * scale).toFixed(-s.exponent));
   }
+  const product = raw * s.safeDigits; // exact while it is a safe integer: the same digits as the BigInt product
+  if (Number.isSafeInteger(product)) return Number(`${product}e${s.exponent}`);
   return Number(`${BigInt(raw) * s.digits}e${s.exponent}`);
 }
 
