@@ -160,9 +160,9 @@ def versions(languages: list[str]) -> dict[str, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="a short run that writes nothing")
-    parser.add_argument("--seconds", type=float, default=2.0, help="seconds per worker run")
-    parser.add_argument("--rounds", type=int, default=7, help="alternating rounds per phase")
+    parser.add_argument("--quick", action="store_true", help="writes nothing; 0.5 s runs, 1 round unless given")
+    parser.add_argument("--seconds", type=float, help="seconds per worker run (default 2)")
+    parser.add_argument("--rounds", type=int, help="alternating rounds per phase (default 7)")
     parser.add_argument("--languages", default="ts,c,py", help="comma-separated: ts, c, py (default all three)")
     parser.add_argument("--note", default="shared 2-core host, busy with other work during the run (6 agents)")
     args = parser.parse_args()
@@ -170,9 +170,10 @@ def main() -> None:
     unknown = [x for x in languages if x not in LANGUAGES]
     if unknown or not languages:
         raise SystemExit(f"--languages {args.languages!r}: use a comma-separated list of ts, c, py")
-    if args.seconds <= 0 or args.rounds < 1:
+    seconds = args.seconds if args.seconds is not None else 0.5 if args.quick else 2.0
+    rounds = args.rounds if args.rounds is not None else 1 if args.quick else 7
+    if seconds <= 0 or rounds < 1:
         raise SystemExit("--seconds must be > 0 and --rounds at least 1")
-    seconds, rounds = (args.seconds, args.rounds) if not args.quick else (min(args.seconds, 0.5), min(args.rounds, 1))
     if robot_bench.cgroup_v2_usable():
         how = "cgroup-v2"
     elif shutil.which("taskset"):
