@@ -874,9 +874,16 @@ interface Owed {
   until: number;
 }
 
-/** The bytes of a frame, as a key: a byte-identical repeat is a possible copy (A2). */
+/**
+ * The frame a received message came in, as a key: a byte-identical repeat is a possible copy (A2).
+ * Built from the name, ID and field values in frame order: a decoded message encodes back to its
+ * frame and no other, so equal keys are equal frames (without encoding the frame again).
+ */
 function frameKey(message: Message): string {
-  return encode(message).join(",");
+  const values = message as unknown as Readonly<Record<string, number>>;
+  let key = `${message.name} ${message.id}`;
+  for (const field of messageSpec(message.name).fields) key += ` ${values[field.name]}`;
+  return key;
 }
 
 /** Wait `ms`; an abort of `signal` ends the wait with the signal's reason. */
