@@ -6,7 +6,7 @@ outside, unconstrained and with the measured process held to one core at 25 %.
 The method is robot_bench.py's (its constraint helpers are imported from it). The simulator runs
 in its own process (`python -m nurimc.sim --link ... --wire-timing`, one controller, ID 1, at
 1 Mbps): it is the wire, never constrained. Each measured loop is a fresh process, alone on the
-link, for --seconds after 50 warm-up requests; rounds alternate the kinds (order reversed every
+link, for --seconds after warm-up requests (50; Node: 500, while V8 compiles); rounds alternate the kinds (order reversed every
 other round), so a busy moment of the (shared) machine slows all of them. Kinds:
 
 - ts-library: `motor.readState()` on the TypeScript `Bus` over `NodeSerialPort` (Node);
@@ -162,7 +162,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="writes nothing; 0.5 s runs, 1 round unless given")
     parser.add_argument("--seconds", type=float, help="seconds per worker run (default 2)")
-    parser.add_argument("--rounds", type=int, help="alternating rounds per phase (default 7)")
+    parser.add_argument("--rounds", type=int, help="alternating rounds per phase (default 9)")
     parser.add_argument("--languages", default="ts,c,py", help="comma-separated: ts, c, py (default all three)")
     parser.add_argument("--note", default="shared 2-core host, busy with other work during the run (6 agents)")
     args = parser.parse_args()
@@ -171,7 +171,7 @@ def main() -> None:
     if unknown or not languages:
         raise SystemExit(f"--languages {args.languages!r}: use a comma-separated list of ts, c, py")
     seconds = args.seconds if args.seconds is not None else 0.5 if args.quick else 2.0
-    rounds = args.rounds if args.rounds is not None else 1 if args.quick else 7
+    rounds = args.rounds if args.rounds is not None else 1 if args.quick else 9
     if seconds <= 0 or rounds < 1:
         raise SystemExit("--seconds must be > 0 and --rounds at least 1")
     if robot_bench.cgroup_v2_usable():

@@ -1,9 +1,9 @@
 // The TypeScript bus's request path against a bare `serialport` loop (issue 33): position feedback
 // from one controller, request (6 bytes) + answer (12 bytes), for SECONDS on LINK at 1 Mbps.
 // Usage: node benchmarks/request_path.mjs library|bare LINK SECONDS   (after tsc: it runs dist/)
-// Prints one JSON line: {"cycles", "failed", "wall", "cpu"}, cpu being this process's user +
-// system time (process.cpuUsage(): every thread, libuv's pool included). Not a test:
-// benchmarks/request_path_bench.py runs it against the simulator, alternating the kinds.
+// After 500 warm-up requests, prints one JSON line: {"cycles", "failed", "wall", "cpu"}, cpu being
+// this process's user + system time (process.cpuUsage(): every thread, libuv's pool included).
+// Not a test: benchmarks/request_path_bench.py runs it against the simulator, alternating the kinds.
 //
 // library: `motor.readState()` on a `Bus` over `NodeSerialPort`, the bus's defaults.
 // bare:    the least a Node program does with `serialport`: write the 6 bytes, wait for 12 bytes
@@ -14,7 +14,7 @@ import { NodeSerialPort } from "../dist/node.js";
 
 const RATE = 1_000_000;
 const ID = 1;
-const WARM_UP = 50;
+const WARM_UP = 500; // V8 compiles the hot paths meanwhile (its compiler threads' CPU would count)
 const [kind, link, secondsText] = process.argv.slice(2);
 const seconds = Number(secondsText);
 if (!["library", "bare"].includes(kind) || !link || !(seconds > 0)) {
