@@ -6,8 +6,9 @@ outside, unconstrained and with the measured process held to one core at 25 %.
 The method is robot_bench.py's (its constraint helpers are imported from it). The simulator runs
 in its own process (`python -m nurimc.sim --link ... --wire-timing`, one controller, ID 1, at
 1 Mbps): it is the wire, never constrained. Each measured loop is a fresh process, alone on the
-link, for --seconds after warm-up requests (50; Node: 500, while V8 compiles); rounds alternate the kinds (order reversed every
-other round), so a busy moment of the (shared) machine slows all of them. Kinds:
+link, for --seconds after warm-up requests (50; Node: 500, while V8 compiles); rounds alternate
+the kinds (order reversed every other round), so a busy moment of the (shared) machine slows all
+of them. Kinds:
 
 - ts-library: `motor.readState()` on the TypeScript `Bus` over `NodeSerialPort` (Node);
 - ts-bare: the `serialport` package alone: write the 6-byte request, wait for the 12 answer bytes;
