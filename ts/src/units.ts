@@ -41,12 +41,31 @@ export function toWire(value: number, scale: number): number {
   return Number(negative ? -steps : steps);
 }
 
+/** 10^0..10^22, each exactly a double. */
+const POW10 = [
+  1, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
+  1e21, 1e22,
+];
+
+/** The decimal form of each scale seen (a handful): fromWire runs for every field of every answer. */
+const scaleDecimals = new Map<number, { digits: bigint; exponent: number; safeDigits: number }>();
+
 /** Wire integer -> physical value, exact to the scale's decimals. */
 export function fromWire(raw: number, scale: number): number {
-  const s = decimalOf(scale);
+  let s = scaleDecimals.get(scale);
+  if (s === undefined) {
+    const d = decimalOf(scale);
+    s = { ...d, safeDigits: Number(d.digits) };
+    if (scaleDecimals.size < 64) scaleDecimals.set(scale, s);
+  }
   if (s.exponent >= 0 || !Number.isInteger(raw)) {
     return s.exponent >= 0 ? raw * scale : Number((raw * scale).toFixed(-s.exponent));
   }
+  // exact while a safe integer (the BigInt product's digits), and 10^k is exact for k <= 22: IEEE
+  // division rounds the exact quotient to the nearest double, as parsing "digits e-k" does
+  const product = raw * s.safeDigits;
+  if (product === 0) return 0; // not -0, as the BigInt product
+  if (Number.isSafeInteger(product) && -s.exponent < POW10.length) return product / (POW10[-s.exponent] as number);
   return Number(`${BigInt(raw) * s.digits}e${s.exponent}`);
 }
 

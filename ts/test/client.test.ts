@@ -1,4 +1,4 @@
-import { describe, expect, it } from "vitest";
+import { describe, expect, it, vi } from "vitest";
 import { Bus } from "../src/bus/client.js";
 import {
   BusClosedError,
@@ -7,7 +7,7 @@ import {
   NoAnswerError,
   UnexpectedAnswerError,
 } from "../src/bus/errors.js";
-import { receive } from "../src/bus/port.js";
+import { type BytePort, Listeners, receive } from "../src/bus/port.js";
 import { answerDeadlineMs, wireTimeMs } from "../src/bus/timing.js";
 import { decode, encode, type Message, make } from "../src/codec.js";
 import { FieldRangeError } from "../src/errors.js";
@@ -45,6 +45,42 @@ describe("bus client", () => {
     const bus = new Bus(port, fast);
     expect(await bus.request(make("request_position", 4, {}))).toEqual(feedback(4));
     expect(bus.stats).toMatchObject({ echoes: 1, unexpectedFrames: 1, retries: 0 });
+  });
+
+  it("asks the same ID again two characters after its answer, on the host's clock, not after a timer's 1 ms", async () => {
+    // a line that answers at once: each request after the first would come within two characters
+    const line = new Listeners<Uint8Array>();
+    const written: number[] = [];
+    const answered: number[] = [];
+    const port: BytePort = {
+      baudRate: 38400, // two characters: 0.52 ms, under the 1 ms a timer waits at least
+      write(data) {
+        written.push(performance.now());
+        line.emit(encode(feedback(decode(data).id)));
+        answered.push(performance.now());
+        return Promise.resolve();
+      },
+      onData: (listener) => line.add(listener),
+      onError: () => () => undefined,
+      setBaudRate: () => Promise.resolve(),
+      close: () => Promise.resolve(),
+    };
+    const delays: number[] = [];
+    const realSetTimeout = globalThis.setTimeout;
+    vi.stubGlobal("setTimeout", (run: () => void, ms?: number) => {
+      delays.push(ms ?? 0);
+      return realSetTimeout(run, ms);
+    });
+    try {
+      const bus = new Bus(port, fast);
+      for (let i = 0; i < 5; i++) expect((await bus.request(make("request_position", 3, {}))).position).toBe(18000);
+    } finally {
+      vi.unstubAllGlobals();
+    }
+    const gap = 2 * wireTimeMs(1, 38400);
+    for (let i = 1; i < written.length; i++) expect(written[i]! - answered[i - 1]!).toBeGreaterThanOrEqual(gap - 0.001); // performance.now's rounding
+    // no sub-millisecond timer: Node would wait 1 ms for it (twice the gap)
+    expect(delays.filter((ms) => ms > 0 && ms < 1)).toEqual([]);
   });
 
   it("discards stale bytes that arrived before the request", async () => {

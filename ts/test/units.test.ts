@@ -128,6 +128,21 @@ describe("units", () => {
     expect(fromWire(2, 100)).toBe(200);
   });
 
+  it("gives every 16-bit wire integer the double nearest its exact decimal value", () => {
+    // the exact value raw x scale, written in decimal and parsed: what fromWire must return
+    const exact = (raw: number, scale: number): number => {
+      const [digits = "", decimals = ""] = String(scale).split(".");
+      return Number(`${BigInt(raw) * BigInt(digits + decimals)}e-${decimals.length}`);
+    };
+    for (const scale of [0.01, 0.1, 0.001, 0.25, 0.3]) {
+      for (let raw = -65535; raw <= 65535; raw++) {
+        if (fromWire(raw, scale) !== exact(raw, scale))
+          expect([raw, fromWire(raw, scale)]).toEqual([raw, exact(raw, scale)]);
+      }
+    }
+    expect(Object.is(fromWire(-0, 0.01), 0)).toBe(true);
+  });
+
   it("round-trips every wire integer through its physical value", () => {
     fc.assert(
       fc.property(fc.integer({ min: 0, max: 65535 }), fc.constantFrom(...SCALES), (raw, scale) => {

@@ -180,6 +180,8 @@ export class Bus {
   /** Product profile per ID (Motor declares it), for the default busy window. */
   readonly products: Map<number, string>;
   private readonly now: () => number;
+  /** `now` is the host's own clock (performance.now), so a wait can be timed on it directly */
+  private readonly realClock: boolean;
   /** host-clock time each ID's busy window ends (kept after it ends, to name the error right) */
   private readonly busyUntilMs = new Map<number, number>();
   private busyAllUntilMs = 0;
@@ -229,6 +231,7 @@ export class Bus {
       Object.entries(options.products ?? {}).map(([id, product]) => [deviceId("products", id), knownProduct(product)]),
     );
     this.now = options.now ?? (() => performance.now());
+    this.realClock = options.now === undefined;
     this.onTraffic = options.onTraffic;
     this.unsubscribe = [
       port.onData((chunk) => this.received(chunk)),
@@ -478,7 +481,7 @@ export class Bus {
     await this.duplicateGap(request.id, answer, signal);
     this.stats.requests += 1;
     const timeout = this.timeoutMs(request);
-    let failure: Error = new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
+    let failure: Error | null = null; // built only when an attempt fails (an Error's stack costs a request's worth)
     let firstSentAt = 0;
     for (let attempt = 0; attempt <= retries; attempt++) {
       if (attempt > 0) {
@@ -487,12 +490,13 @@ export class Bus {
       }
       await this.waitUntilFree([request.id], signal);
       if (attempt === 0) firstSentAt = this.now();
-      const before = { ...this.parser.stats };
+      const droppedBefore = this.parser.stats.droppedBytes;
+      const badChecksumBefore = this.parser.stats.badChecksum;
       const pending: Pending = { request, answer, unexpected: [], resolve: () => undefined, fail: () => undefined };
       const message = await this.exchange(pending, frame, timeout, signal);
       if (message !== null) return message;
-      const dropped = this.parser.stats.droppedBytes - before.droppedBytes;
-      const badChecksum = this.parser.stats.badChecksum - before.badChecksum;
+      const dropped = this.parser.stats.droppedBytes - droppedBefore;
+      const badChecksum = this.parser.stats.badChecksum - badChecksumBefore;
       // the last attempt's failure is reported, in the Python library's order of precedence
       if (pending.unexpected.length > 0) failure = new UnexpectedAnswerError(request, pending.unexpected);
       else if (dropped > 0 || badChecksum > 0)
@@ -501,6 +505,7 @@ export class Bus {
         failure = new ControllerBusyError(request, attempt + 1, timeout, this.port.baudRate, this.windowMs(request.id));
       } else failure = new NoAnswerError(request, attempt + 1, timeout, this.port.baudRate);
     }
+    failure ??= new NoAnswerError(request, retries + 1, timeout, this.port.baudRate);
     if (failure instanceof CorruptedAnswerError) this.stats.corrupted += 1;
     if (failure instanceof NoAnswerError) this.stats.noAnswer += 1;
     throw failure;
@@ -706,7 +711,16 @@ export class Bus {
     if (last === undefined || last.name !== answer) return;
     const gap = last.at + 2 * wireTimeMs(1, this.port.baudRate);
     const now = this.now();
-    if (now < gap) await sleep(gap - now, signal);
+    if (now >= gap) return;
+    // two characters are 20 us at 1 Mbps, but a timer waits at least 1 ms: a shorter wait on the
+    // host's clock lets the event loop turn (received bytes are handled) until the time has passed
+    if (this.realClock && gap - now < 1 && typeof setImmediate === "function") {
+      while (performance.now() < gap) {
+        signal.throwIfAborted();
+        await new Promise<void>((resolve) => setImmediate(resolve));
+      }
+      signal.throwIfAborted();
+    } else await sleep(gap - now, signal);
   }
 
   /** After two unanswered fences: listen until the `answer` entries `id` owes came or expired (A3). */
@@ -860,9 +874,16 @@ interface Owed {
   until: number;
 }
 
-/** The bytes of a frame, as a key: a byte-identical repeat is a possible copy (A2). */
+/**
+ * The frame a received message came in, as a key: a byte-identical repeat is a possible copy (A2).
+ * Built from the name, ID and field values in frame order: a decoded message encodes back to its
+ * frame and no other, so equal keys are equal frames (without encoding the frame again).
+ */
 function frameKey(message: Message): string {
-  return encode(message).join(",");
+  const values = message as unknown as Readonly<Record<string, number>>;
+  let key = `${message.name} ${message.id}`;
+  for (const field of messageSpec(message.name).fields) key += ` ${values[field.name]}`;
+  return key;
 }
 
 /** Wait `ms`; an abort of `signal` ends the wait with the signal's reason. */
