@@ -298,13 +298,14 @@ def test_a_cyclone_dds_client_gets_its_request_header_back(loopback: None) -> No
     from cyclonedds.topic import Topic
 
     from nurimc.ros2.dds import Participant, default_qos
+    from nurimc.ros2.interfaces import Trigger_Request, Trigger_Response
 
-    from .trigger_types import CycloneTriggerRequest, CycloneTriggerResponse, TriggerRequest, TriggerResponse
+    from .trigger_types import CycloneTriggerRequest, CycloneTriggerResponse
 
     ours = RtpsParticipant()
     cyclone = Participant()
     try:
-        ours.service("/t/trigger", TriggerRequest, TriggerResponse, lambda request: TriggerResponse(True, "done"))
+        ours.service("/t/trigger", Trigger_Request, Trigger_Response, lambda request: Trigger_Response(True, "done"))
         qos = default_qos()
         request_topic = Topic(cyclone.participant, "rq/t/triggerRequest", CycloneTriggerRequest, qos=qos)
         reply_topic = Topic(cyclone.participant, "rr/t/triggerReply", CycloneTriggerResponse, qos=qos)

@@ -1,21 +1,11 @@
-"""std_srvs/Trigger as DDS types, plain and with rmw_cyclonedds_cpp's in-band request header, for
-test_rtps.py (no `from __future__ import annotations`: Cyclone DDS reads the field types at run time)."""
+"""std_srvs/Trigger with rmw_cyclonedds_cpp's in-band request header, for test_rtps.py (the plain
+types are nurimc.ros2.interfaces'; no `from __future__ import annotations`: Cyclone DDS reads the
+field types at run time)."""
 
 from dataclasses import dataclass
 
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import int64, uint8, uint64
-
-
-@dataclass
-class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
-    structure_needs_at_least_one_member: uint8 = 0
-
-
-@dataclass
-class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
-    success: bool = False
-    message: str = ""
 
 
 @dataclass

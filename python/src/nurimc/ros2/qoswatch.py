@@ -29,6 +29,14 @@ from .names import dds_topic
 GRAPH_WAIT = 2.0  # s to wait for the writer's node to be announced
 
 
+def warning(who: str, ros_topic: str) -> str:
+    """The line said once per best-effort writer of a command topic (on either DDS stack)."""
+    return (
+        f"warning: {who} publishes {ros_topic} best effort; the bridge takes commands reliable (ROS 2's default "
+        "QoS), so nothing it sends arrives: publish them reliable"
+    )
+
+
 class IncompatibleWriters:
     def __init__(self, participant: Any, log: Callable[[str], None]) -> None:
         self._log = log
@@ -61,10 +69,7 @@ class IncompatibleWriters:
                 if reliability != Policy.Reliability.BestEffort:
                     continue
                 self._reported.add(endpoint.key.bytes)
-                line = (
-                    f"warning: {self._who(endpoint.key.bytes)} publishes {ros_topic} best effort; the bridge takes "
-                    "commands reliable (ROS 2's default QoS), so nothing it sends arrives: publish them reliable"
-                )
+                line = warning(self._who(endpoint.key.bytes), ros_topic)
                 self.reported.append(line)
                 lines.append(line)
         for line in lines:

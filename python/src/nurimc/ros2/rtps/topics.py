@@ -17,6 +17,7 @@ from typing import Any
 from ..dds import ENCLAVE_USER_DATA, domain_id
 from ..graph import DISCOVERY_TOPIC, Gid, NodeEntitiesInfo, ParticipantEntitiesInfo, node_name
 from ..names import dds_topic
+from ..qoswatch import warning
 from ..typehash import user_data
 from . import wire
 from .discovery import Qos, RemoteEndpoint
@@ -248,11 +249,7 @@ class IncompatibleWriters:
                 while who is None and time.monotonic() < deadline:
                     time.sleep(0.1)
                     who = self._participant.node_of(guid)
-                line = (
-                    f"warning: {who or f'a DDS participant ({guid[:12].hex()}, not a ROS node)'} publishes "
-                    f"{ros_topic} best effort; the bridge takes commands reliable (ROS 2's default QoS), so "
-                    "nothing it sends arrives: publish them reliable"
-                )
+                line = warning(who or f"a DDS participant ({guid[:12].hex()}, not a ROS node)", ros_topic)
                 self.reported.append(line)
                 lines.append(line)
         for line in lines:
