@@ -108,11 +108,14 @@ class Link:
             "rt/x",
             "T",
             Qos(True, reader_durable, 10),
-            lambda item, remote: self.delivered.append(item.payload or b"") and None,
+            self._deliver,
         )
         self.remote_reader = RemoteEndpoint(self.reader.guid, "rt/x", "T", True, reader_durable, [])
         self.remote_writer = RemoteEndpoint(self.writer.guid, "rt/x", "T", True, writer_durable, [])
         self.drop: set[int] = set()  # sequence numbers whose first DATA is lost
+
+    def _deliver(self, item: wire.Data, remote: RemoteEndpoint) -> None:
+        self.delivered.append(item.payload or b"")
 
     def to_reader(self, out: list[Outgoing]) -> list[Outgoing]:
         back: list[Outgoing] = []
@@ -280,8 +283,17 @@ def test_callbacks_run_without_the_participant_lock(loopback: None) -> None:
     try:
         ping = left.writer("/t/ping", msgs.Bool)
         pong = right.writer("/t/pong", msgs.Bool)
-        right.reader("/t/ping", msgs.Bool, lambda r: [pong.write(s) for s in r.take(8)])
-        left.reader("/t/pong", msgs.Bool, lambda r: r.take(8) and done.set())
+
+        def answer(reader: Any) -> None:
+            for sample in reader.take(8):
+                pong.write(sample)
+
+        def answered(reader: Any) -> None:
+            if reader.take(8):
+                done.set()
+
+        right.reader("/t/ping", msgs.Bool, answer)
+        left.reader("/t/pong", msgs.Bool, answered)
         wait_for(lambda: ping.matched() and pong.matched())
         ping.write(msgs.Bool(data=True))
         assert done.wait(10)
