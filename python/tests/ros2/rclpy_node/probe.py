@@ -212,10 +212,11 @@ def base(probe: Probe) -> dict:
 def restart(probe: Probe) -> dict:
     """A node that outlives two bridges: as soon as each one's joint_states arrive, one position
     command (published once, as a user's node does it); the time from the command to the joint there.
-    Says "phase <n> done" on stdout after each, so the test can restart the bridge."""
+    Says "phase <n> done" on stdout after each, and "bridge gone" when the first one's joint_states
+    have stopped, so the test can restart the bridge."""
     node, ns, out = probe.node, probe.ns, {"reach_s": []}
     positions = node.create_publisher(Float64MultiArray, f"{ns}/position_commands", 10)
-    for phase, target in enumerate((math.pi / 2, math.pi / 4)):  # the second bridge starts at 0
+    for phase, target in enumerate((math.pi / 4, math.pi / 4)):  # each bridge's simulated motor starts at 0
         count = len(probe.states)
         if not probe.spin(60, until=lambda count=count: len(probe.states) > count):
             out["reach_s"].append(None)
@@ -235,6 +236,7 @@ def restart(probe: Probe) -> dict:
                 probe.spin(0.5)
                 if len(probe.states) == count:
                     break
+            print("bridge gone", flush=True)
     return out
 
 

@@ -1,0 +1,49 @@
+"""The handshake reader (handshake.py): announced on a topic when a writer matches one of our readers,
+gone after its hold; a writer matched later gets one of its own. (Its effect on a Fast DDS writer
+is tested with real rclpy nodes in test_rclpy.py: the first command after a restart.)"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from nurimc.ros2 import msgs
+from nurimc.ros2.dds import Participant
+from nurimc.ros2.handshake import Handshakes
+
+from .peer import Float64MultiArray, Peer
+from .test_end_to_end import unique
+
+
+def wait(condition: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"{what}: not within {timeout} s")
+        time.sleep(0.01)
+
+
+def test_a_matched_writer_sees_a_second_reader_for_a_moment() -> None:
+    bridge, peer = Participant(), Peer()
+    try:
+        bridge.handshakes.close()
+        bridge.handshakes = Handshakes(bridge.participant, hold=0.5)
+        ns = unique("handshake")
+        reader = bridge.reader(f"{ns}/position_commands", msgs.Float64MultiArray)
+        writer = peer.publisher(f"{ns}/position_commands", Float64MultiArray)
+        readers = lambda: writer.get_publication_matched_status().current_count  # noqa: E731
+        wait(lambda: readers() == 2, 10, "the writer matched our reader and a handshake reader")
+        assert bridge.handshakes.count == 1
+        wait(lambda: readers() == 1, 10, "the handshake reader deleted after its hold")
+        assert reader.get_subscription_matched_status().current_count == 1  # ours stays
+        assert bridge.handshakes.count == 1
+
+        # a second writer: a new handshake reader (the first one was announced before it existed)
+        second = peer.publisher(f"{ns}/position_commands", Float64MultiArray)
+        matched = lambda: second.get_publication_matched_status().current_count  # noqa: E731
+        wait(lambda: matched() == 2, 10, "a handshake reader for the second writer")
+        assert bridge.handshakes.count == 2
+        wait(lambda: matched() == 1, 10, "the second handshake reader deleted")
+    finally:
+        bridge.close()
+        peer.close()
