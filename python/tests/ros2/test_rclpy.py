@@ -220,3 +220,7 @@ def test_first_command_after_a_restart_is_as_fast_as_on_a_fresh_bridge(release: 
     assert fresh is not None and restarted is not None, seen  # None: the command never arrived
     # the same move (0 to pi/4) on each; a busy host adds its own delays to either, not 3 s
     assert restarted <= fresh + RESTART_MARGIN, seen
+    # the stopped bridge's reader left the node's publisher when it said goodbye; the new bridge's alone
+    # stays (its handshake reader went after its moment: nothing accumulates in the node)
+    assert seen["matched_when_gone"] == 0, seen
+    assert seen["matched_after"] == 1, seen
