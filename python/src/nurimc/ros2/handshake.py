@@ -15,6 +15,14 @@ on that topic is announced for a moment (HOLD). The writer, matching it, sends i
 Cyclone now takes (it knows the writer), and which puts the writer's sequence in step for every
 reader of ours; a sample already waiting is then delivered. One such reader per topic covers every
 writer matched before it was announced.
+
+At start-up, one more wait (`wait_until_heard`, before the first joint_states): Cyclone may learn a
+Fast DDS node's readers about a second before its writers (Fast DDS sends the two kinds of discovery
+data separately, each only when asked). In that window the node already gets joint_states, and a
+command it sends at once is dropped (its writer unknown), then never asked for again (Cyclone counts
+what the writer's first HEARTBEAT announces as history). So the bridge publishes its first
+joint_states once it has heard the writers of every Fast DDS participant it knows of (at most
+START_WAIT s).
 """
 
 from __future__ import annotations
@@ -25,11 +33,14 @@ import threading
 import time
 from typing import Any
 
-from cyclonedds.core import Qos
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant, BuiltinTopicDcpsPublication
+from cyclonedds.core import InstanceState, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 HOLD = 2.0  # s a handshake reader stays: the writer's HEARTBEAT comes within milliseconds on a LAN
+START_WAIT = 2.0  # s at most to wait at start for the writers of the Fast DDS participants known
+FAST_DDS_PREFIX = b"\x01\x0f"  # eProsima's vendor id, which Fast DDS puts first in its GUIDs
 
 
 class Handshakes:
@@ -42,6 +53,8 @@ class Handshakes:
         self._announced: dict[str, float] = {}  # topic name -> when its latest handshake reader was announced
         self._expiring: list[tuple[float, DataReader[Any]]] = []  # readers to delete, by deadline
         self.count = 0  # handshake readers announced so far (for tests)
+        self._participants = BuiltinDataReader(participant, BuiltinTopicDcpsParticipant)
+        self._publications = BuiltinDataReader(participant, BuiltinTopicDcpsPublication)
         self._thread = threading.Thread(target=self._run, name="nurimc-dds-handshake", daemon=True)
         self._thread.start()
 
@@ -49,6 +62,27 @@ class Handshakes:
         """A reader's subscription-matched status (called on a DDS thread): a new writer asks for a handshake."""
         if status.current_count_change > 0:
             self._requests.put((topic, qos, time.monotonic()))
+
+    def unheard(self) -> list[str]:
+        """Fast DDS participants known whose writers we have not heard of yet (their GUIDs)."""
+        alive = InstanceState.Alive
+        participants = {
+            p.key.bytes
+            for p in self._participants.read(N=4096)
+            if p.sample_info.instance_state == alive and p.key.bytes.startswith(FAST_DDS_PREFIX)
+        }
+        writers = self._publications.read(N=65536)
+        heard = {w.participant_key.bytes for w in writers if w.sample_info.instance_state == alive}
+        return sorted(key.hex() for key in participants - heard)
+
+    def wait_until_heard(self, timeout: float = START_WAIT) -> bool:
+        """Until every Fast DDS participant known has had its writers heard of (True), or `timeout`."""
+        deadline = time.monotonic() + timeout
+        while self.unheard():
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.02)
+        return True
 
     def close(self) -> None:
         """Stop the thread; its readers go with the participant."""
