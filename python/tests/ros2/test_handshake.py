@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 from nurimc.ros2 import msgs
 from nurimc.ros2.dds import Participant
@@ -23,6 +24,15 @@ def wait(condition: Callable[[], bool], timeout: float, what: str) -> None:
         time.sleep(0.01)
 
 
+def readers_of(writer: Any) -> int:
+    """How many readers a writer is matched with."""
+    return int(writer.get_publication_matched_status().current_count)
+
+
+def writers_of(reader: Any) -> int:
+    return int(reader.get_subscription_matched_status().current_count)
+
+
 def test_a_matched_writer_sees_a_second_reader_for_a_moment() -> None:
     bridge, peer = Participant(), Peer()
     try:
@@ -31,19 +41,17 @@ def test_a_matched_writer_sees_a_second_reader_for_a_moment() -> None:
         ns = unique("handshake")
         reader = bridge.reader(f"{ns}/position_commands", msgs.Float64MultiArray)
         writer = peer.publisher(f"{ns}/position_commands", Float64MultiArray)
-        readers = lambda: writer.get_publication_matched_status().current_count  # noqa: E731
-        wait(lambda: readers() == 2, 10, "the writer matched our reader and a handshake reader")
+        wait(lambda: readers_of(writer) == 2, 10, "the writer matched our reader and a handshake reader")
         assert bridge.handshakes.count == 1
-        wait(lambda: readers() == 1, 10, "the handshake reader deleted after its hold")
-        assert reader.get_subscription_matched_status().current_count == 1  # ours stays
+        wait(lambda: readers_of(writer) == 1, 10, "the handshake reader deleted after its hold")
+        assert writers_of(reader) == 1  # ours stays
         assert bridge.handshakes.count == 1
 
         # a second writer: a new handshake reader (the first one was announced before it existed)
         second = peer.publisher(f"{ns}/position_commands", Float64MultiArray)
-        matched = lambda: second.get_publication_matched_status().current_count  # noqa: E731
-        wait(lambda: matched() == 2, 10, "a handshake reader for the second writer")
+        wait(lambda: readers_of(second) == 2, 10, "a handshake reader for the second writer")
         assert bridge.handshakes.count == 2
-        wait(lambda: matched() == 1, 10, "the second handshake reader deleted")
+        wait(lambda: readers_of(second) == 1, 10, "the second handshake reader deleted")
     finally:
         bridge.close()
         peer.close()

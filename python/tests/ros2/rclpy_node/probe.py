@@ -237,7 +237,7 @@ def restart(probe: Probe) -> dict:
                 if len(probe.states) == count:
                     break
             # its reader unmatched by its goodbye (not 10 s later by its lease running out)
-            probe.spin(3, until=lambda: positions.get_subscription_count() == 0)
+            probe.spin(3, until=lambda p=positions: p.get_subscription_count() == 0)
             out["matched_when_gone"] = positions.get_subscription_count()
             print("bridge gone", flush=True)
     # the new bridge's reader alone (a handshake reader stays a moment: ros2/handshake.py)
