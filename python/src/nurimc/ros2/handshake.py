@@ -103,8 +103,12 @@ class Handshakes:
                 self._delete(self._expiring.pop(0)[1])
             if request:
                 topic, qos, asked = request
-                self._announce(topic, qos, asked)
-                self._requests.task_done()
+                try:
+                    self._announce(topic, qos, asked)
+                except Exception:  # a handshake is a help: its failure must not end the thread
+                    pass
+                finally:
+                    self._requests.task_done()
 
     @property
     def idle(self) -> bool:
