@@ -8,7 +8,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from nurimc.ros2 import msgs
+import pytest
+
+from nurimc.ros2 import handshake, msgs
 from nurimc.ros2.dds import Participant
 from nurimc.ros2.handshake import Handshakes
 
@@ -52,6 +54,26 @@ def test_a_matched_writer_sees_a_second_reader_for_a_moment() -> None:
         wait(lambda: readers_of(second) == 2, 10, "a handshake reader for the second writer")
         assert bridge.handshakes.count == 2
         wait(lambda: readers_of(second) == 1, 10, "the second handshake reader deleted")
+    finally:
+        bridge.close()
+        peer.close()
+
+
+def test_the_start_waits_until_the_writers_of_known_participants_are_heard(monkeypatch: pytest.MonkeyPatch) -> None:
+    """wait_until_heard: a participant known without writers holds the start (up to its timeout);
+    once one of its writers is heard of, it does not. Fast DDS's GUID prefix stands in for Cyclone's
+    here (the test's peers are Cyclone participants)."""
+    monkeypatch.setattr(handshake, "FAST_DDS_PREFIX", b"\x01\x10")  # Cyclone's vendor id
+    bridge, peer = Participant(), Peer()
+    try:
+        wait(lambda: peer.participant.guid.bytes.hex() in bridge.handshakes.unheard(), 10, "the peer discovered")
+        started = time.monotonic()
+        assert not bridge.handshakes.wait_until_heard(0.3)  # no writer of the peer: the whole timeout
+        assert time.monotonic() - started >= 0.3
+        writer = peer.publisher(unique("heard") + "/estop", Float64MultiArray)
+        assert bridge.handshakes.wait_until_heard(10), bridge.handshakes.unheard()
+        assert peer.participant.guid.bytes.hex() not in bridge.handshakes.unheard()
+        del writer
     finally:
         bridge.close()
         peer.close()

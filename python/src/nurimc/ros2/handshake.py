@@ -65,11 +65,11 @@ class Handshakes:
 
     def unheard(self) -> list[str]:
         """Fast DDS participants known whose writers we have not heard of yet (their GUIDs)."""
-        alive = InstanceState.Alive
+        alive, own = InstanceState.Alive, self._participant.guid.bytes
         participants = {
             p.key.bytes
             for p in self._participants.read(N=4096)
-            if p.sample_info.instance_state == alive and p.key.bytes.startswith(FAST_DDS_PREFIX)
+            if p.sample_info.instance_state == alive and p.key.bytes.startswith(FAST_DDS_PREFIX) and p.key.bytes != own
         }
         writers = self._publications.read(N=65536)
         heard = {w.participant_key.bytes for w in writers if w.sample_info.instance_state == alive}
