@@ -25,6 +25,7 @@ def test_by_default_multicast_stays_on_peers_are_kept_and_logs_are_quiet() -> No
     assert domain.findtext("Discovery/InitialLocatorPruneDelay") == "inf"
     assert domain.findtext("Discovery/SPDPInterval") == "1 s"  # a late node is found within a second
     assert domain.findtext("Tracing/Verbosity") == "severe"
+    assert domain.findtext("Internal/GenerateKeyhash") == "true"  # Fast DDS sees a stopped bridge go at once
     assert peers(domain) == []
 
 

@@ -13,7 +13,10 @@ import itertools
 import json
 import math
 import os
+import queue
 import subprocess
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +34,9 @@ RELEASES = ["jazzy", "kilted"]
 WHEEL_RADIUS, WHEEL_SEPARATION = 0.05, 0.5
 #: odometry against the wheels' own travel (the same readings integrated here): m and rad
 ODOM_TOLERANCE, YAW_TOLERANCE = 0.01, 0.01
+#: s a restarted bridge's first command may take beyond a fresh bridge's (issue 36's bound; the fault
+#: this guards: 3 s more, or the command lost)
+RESTART_MARGIN = 0.2
 
 
 def ros_python(release: str) -> Path:
@@ -61,7 +67,7 @@ def test_our_type_hashes_are_those_ros2_ships(release: str) -> None:
     assert checked == 13
 
 
-def run_probe(release: str, scenario: str, namespace: str) -> dict[str, Any]:
+def probe_env() -> dict[str, str]:
     env = {
         **os.environ,
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
@@ -69,12 +75,16 @@ def run_probe(release: str, scenario: str, namespace: str) -> dict[str, Any]:
         "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
     }
     env.pop("_ROS_WHEELS_BOOTSTRAP_COMPLETE", None)
+    return env
+
+
+def run_probe(release: str, scenario: str, namespace: str) -> dict[str, Any]:
     proc = subprocess.run(
         [str(ros_python(release)), str(HERE / "rclpy_node" / "probe.py"), scenario, namespace],
         capture_output=True,
         text=True,
         timeout=120,
-        env=env,
+        env=probe_env(),
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return dict(json.loads(proc.stdout.strip().splitlines()[-1]))
@@ -183,38 +193,66 @@ def test_mobile_base_drives_a_square_with_a_real_ros2_node(release: str) -> None
     assert tf and tf[-1].transforms[0].header.frame_id == "odom" and tf[-1].transforms[0].child_frame_id == "base_link"
 
 
-@pytest.mark.parametrize("release", RELEASES)
-def test_the_first_command_after_a_bridge_restart_is_as_fast_as_on_a_fresh_bridge(release: str) -> None:
-    """A node that outlives the bridge publishes one position command to the first bridge, then one to
-    its successor: the second reaches the joint within 0.2 s of the first's time (issue 36; it took
-    3 s when the bridge's DDS was Cyclone's, docs/ros2.md "Restarts and start-up")."""
+def restart_round(release: str, pause: float = 0.0, dds: str = "rtps") -> dict[str, Any]:
+    """The probe's `restart` scenario (rclpy_node/probe.py): a node that outlives the bridge publishes
+    one position command as soon as each bridge's joint_states arrive, to a fresh bridge, then to one
+    restarted `pause` s after the first one's joint_states stopped. What the node saw (its JSON)."""
     ns = unique(f"restart_{release}")
-    env = {
-        **os.environ,
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-        "FASTDDS_DEFAULT_PROFILES_FILE": str(HERE / "rclpy_node" / "fastdds_loopback.xml"),
-        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
-    }
-    env.pop("_ROS_WHEELS_BOOTSTRAP_COMPLETE", None)
-    bridge = BridgeProcess(ns, "1")
     probe = subprocess.Popen(
         [str(ros_python(release)), str(HERE / "rclpy_node" / "probe.py"), "restart", ns],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env=env,
+        env=probe_env(),
     )
+    lines: queue.Queue[str] = queue.Queue()
+    out = probe.stdout
+    assert out is not None
+
+    def pump() -> None:
+        for line in out:
+            lines.put(line)
+
+    threading.Thread(target=pump, daemon=True).start()
+
+    def said(what: str) -> None:
+        try:
+            line = lines.get(timeout=90)
+        except queue.Empty:
+            line = "(nothing)"
+        assert line.strip() == what, f"the node said {line!r}, not {what!r}"
+
+    bridge = BridgeProcess(ns, "1", "--dds", dds)
     try:
-        assert probe.stdout is not None
-        assert probe.stdout.readline().strip() == "phase 0 done"
+        said("phase 0 done")
         assert bridge.stop() == 0, "".join(bridge.stderr)
-        bridge = BridgeProcess(ns, "1")
-        out, err = probe.communicate(timeout=90)
+        said("bridge gone")
+        time.sleep(pause)  # the scenario's own pause (a restart after the lease), not a wait for a condition
+        bridge = BridgeProcess(ns, "1", "--dds", dds)  # the same namespace, as a service manager restarts it
+        said("phase 1 done")
+        said_json = lines.get(timeout=60)
     finally:
-        if probe.poll() is None:
-            probe.kill()
-        bridge.stop()
-    seen = json.loads(out.strip().splitlines()[-1])
+        assert bridge.stop() == 0, "".join(bridge.stderr)
+        try:
+            probe.wait(timeout=30)
+        finally:
+            if probe.poll() is None:
+                probe.kill()
+    return dict(json.loads(said_json))
+
+
+@pytest.mark.parametrize("dds", ["rtps", "cyclone"])
+@pytest.mark.parametrize("release", RELEASES)
+def test_first_command_after_a_restart_is_as_fast_as_on_a_fresh_bridge(release: str, dds: str) -> None:
+    """To a fresh bridge, then to one restarted at once (docs/ros2.md, "Restarts and start-up"), on
+    either DDS stack of the bridge. Before the fixes the second took 3 s longer (Fast DDS's periodic
+    heartbeat), or was lost (the stopped bridge's reader still matched)."""
+    seen = restart_round(release, dds=dds)
     fresh, restarted = seen["reach_s"]
-    assert fresh is not None and restarted is not None, (seen, err[-2000:])
-    assert restarted <= fresh + 0.2, seen
+    assert fresh is not None and restarted is not None, seen  # None: the command never arrived
+    # the same move (0 to pi/4) on each; a busy host adds its own delays to either, not 3 s
+    assert restarted <= fresh + RESTART_MARGIN, seen
+    # the stopped bridge's reader left the node's publisher when it said goodbye; the new bridge's alone
+    # stays (its handshake reader went after its moment: nothing accumulates in the node)
+    assert seen["matched_when_gone"] == 0, seen
+    assert seen["matched_after"] == 1, seen

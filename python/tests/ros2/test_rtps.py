@@ -335,3 +335,32 @@ def test_a_cyclone_dds_client_gets_its_request_header_back(loopback: None) -> No
     finally:
         cyclone.close()
         ours.close()
+
+
+def test_a_sample_from_a_writer_not_yet_discovered_is_delivered_once_it_is(loopback: None) -> None:
+    """Fast DDS's announcement of a writer often comes after the writer's first sample to us (a
+    command sent right after it matched our reader): kept, and delivered when the writer is known."""
+    from nurimc.ros2.rtps.netconfig import NetConfig
+    from nurimc.ros2.rtps.participant import Participant
+
+    got: list[bytes] = []
+    ours = Participant(NetConfig(domain=int(os.environ["ROS_DOMAIN_ID"]), address="127.0.0.1", multicast=False))
+    try:
+
+        def take(item: wire.Data, remote: RemoteEndpoint) -> None:
+            got.append(item.payload or b"")
+
+        ours.create_reader("rt/x", "T", Qos(), take)
+        peer = b"\x01\x0f" + bytes(range(10))  # a Fast DDS participant
+        writer = Guid(peer, b"\x00\x00\x12\x03")
+        locator = Locator.udp4("127.0.0.1", 9)  # the discard port: what we send back goes nowhere
+        sample = b"\x00\x01\x00\x00cmd!"
+        ours._receive(wire.header(peer) + wire.data(wire.ENTITY_UNKNOWN, writer.entity, 7, sample))
+        assert got == []  # unknown writer: kept, not delivered
+        spdp = discovery.participant_data(peer, [locator], [locator], 20, b"", "node")
+        ours._receive(wire.header(peer) + wire.data(wire.ENTITY_UNKNOWN, wire.SPDP_WRITER, 1, spdp))
+        sedp = discovery.endpoint_data(writer, "rt/x", "T", Qos(), b"", [locator])
+        ours._receive(wire.header(peer) + wire.data(wire.SEDP_PUB_READER, wire.SEDP_PUB_WRITER, 1, sedp))
+        assert got == [sample]
+    finally:
+        ours.close()

@@ -25,6 +25,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from .ddsconfig import generated_config
+from .handshake import Handshakes
 from .names import dds_topic
 from .typehash import user_data
 
@@ -99,6 +100,8 @@ class Participant:
                 ) from None
             self._domain = None  # this process already has the domain (e.g. a test's own participant)
         self.participant = DomainParticipant(self.domain, qos=Qos(Policy.Userdata(ENCLAVE_USER_DATA)))
+        #: readers in step at once with writers that published before matching them (handshake.py)
+        self.handshakes = Handshakes(self.participant)
         self._topics: dict[str, Topic[Any]] = {}
         #: the ROS endpoints (name, ROS type, reader or writer) for the node graph (graph.py)
         self.endpoints: list[tuple[str, str, DataReader[Any] | DataWriter[Any]]] = []
@@ -123,9 +126,12 @@ class Participant:
         if self.on_incompatible_qos is not None:  # qoswatch.py: who publishes with a QoS we cannot take
             report = self.on_incompatible_qos
             callbacks["on_requested_incompatible_qos"] = lambda reader, status: report(ros_name)
-        listener = Listener(**callbacks) if callbacks else None  # type: ignore[no-untyped-call]
         qos = endpoint_qos(data_type)
-        reader = DataReader(self.participant, self.topic(ros_name, data_type), qos=qos, listener=listener)
+        dds_topic_ = self.topic(ros_name, data_type)
+        handshakes = self.handshakes
+        callbacks["on_subscription_matched"] = lambda reader, status: handshakes.matched(dds_topic_, qos, status)
+        listener = Listener(**callbacks)  # type: ignore[no-untyped-call]
+        reader = DataReader(self.participant, dds_topic_, qos=qos, listener=listener)
         self.endpoints.append((ros_name, data_type.__idl_typename__, reader))
         return reader
 
@@ -141,6 +147,11 @@ class Participant:
                 others += 1
         reader.__del__()
         return others
+
+    def wait_for_writers(self) -> None:
+        """Until the writers of every Fast DDS participant known have been heard of (at most 2 s;
+        handshake.py says why: a command sent before is lost on Cyclone DDS)."""
+        self.handshakes.wait_until_heard()
 
     def qos_watch(self, log: Callable[[str], None]) -> Any:
         """Who publishes our command topics with a QoS our readers cannot take, said once by name (qoswatch.py)."""
@@ -158,6 +169,7 @@ class Participant:
 
     def close(self) -> None:
         # Deleting the participant deletes its readers, writers and topics (and listeners) with it.
+        self.handshakes.close()
         self._topics.clear()
         self.endpoints.clear()
         self.participant.__del__()

@@ -18,7 +18,12 @@ bridge's domain gets, in this order (dds.domain_config):
    laptop joining a minute later was never found) and are announced to every second
    (`Discovery/SPDPInterval` = 1 s; Cyclone's default, 30 s, found a late laptop only 15 s or
    more after it started, tests/ros2/test_netns.py); Cyclone's log is kept to severe errors
-   (`Tracing/Verbosity` = severe: a hostile or broken network cannot fill a disk or a terminal).
+   (`Tracing/Verbosity` = severe: a hostile or broken network cannot fill a disk or a terminal);
+   discovery data carries the key hash of the participant or endpoint it is about
+   (`Internal/GenerateKeyhash` = true): Fast DDS 2.14 and 3.2 (Jazzy, Kilted) take the identity of a
+   participant or endpoint that says goodbye only from that hash, so without it a stopped bridge's
+   readers stayed matched in every Fast DDS node until its lease ran out (10 s), and a bridge
+   restarted within that time lost the first command (docs/ros2.md, "Restarts and start-up").
 3. The user's `CYCLONEDDS_URI`, which overrides any of the above.
 4. The Fast DDS 3 compatibility setting (dds.FAST_DDS_NAME_MATCHING).
 """
@@ -89,6 +94,7 @@ def generated_config(environ: Mapping[str, str] | None = None) -> str:
         "<CycloneDDS><Domain Id='any'>"
         + (f"<General>{general}</General>" if general else "")
         + f"<Discovery>{discovery}</Discovery>"
+        + "<Internal><GenerateKeyhash>true</GenerateKeyhash></Internal>"
         + "<Tracing><Verbosity>severe</Verbosity></Tracing>"
         + "</Domain></CycloneDDS>"
     )

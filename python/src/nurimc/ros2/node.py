@@ -239,6 +239,8 @@ class BridgeNode:
     def start(self) -> None:
         if self.graph is not None:
             self.graph.announce()
+        # no joint_states (which a node may answer with a command at once) before its writers are known
+        self.participant.wait_for_writers()
         self.subscribe()
         self.service.start()
         self._thread = threading.Thread(target=self.run, name="nurimc-ros2-bridge", daemon=True)

@@ -217,10 +217,11 @@ def base(probe: Probe) -> dict:
 def restart(probe: Probe) -> dict:
     """A node that outlives two bridges: as soon as each one's joint_states arrive, one position
     command (published once, as a user's node does it); the time from the command to the joint there.
-    Says "phase <n> done" on stdout after each, so the test can restart the bridge."""
+    Says "phase <n> done" on stdout after each, and "bridge gone" when the first one's joint_states
+    have stopped, so the test can restart the bridge."""
     node, ns, out = probe.node, probe.ns, {"reach_s": []}
     positions = node.create_publisher(Float64MultiArray, f"{ns}/position_commands", 10)
-    for phase, target in enumerate((math.pi / 2, math.pi / 4)):  # the second bridge starts at 0
+    for phase, target in enumerate((math.pi / 4, math.pi / 4)):  # each bridge's simulated motor starts at 0
         count = len(probe.states)
         if not probe.spin(60, until=lambda count=count: len(probe.states) > count):
             out["reach_s"].append(None)
@@ -240,6 +241,13 @@ def restart(probe: Probe) -> dict:
                 probe.spin(0.5)
                 if len(probe.states) == count:
                     break
+            # its reader unmatched by its goodbye (not 10 s later by its lease running out)
+            probe.spin(3, until=lambda p=positions: p.get_subscription_count() == 0)
+            out["matched_when_gone"] = positions.get_subscription_count()
+            print("bridge gone", flush=True)
+    # the new bridge's reader alone (a handshake reader stays a moment: ros2/handshake.py)
+    probe.spin(6, until=lambda: positions.get_subscription_count() == 1)
+    out["matched_after"] = positions.get_subscription_count()
     return out
 
 

@@ -140,7 +140,10 @@ class Reader:
     def match(self, remote: RemoteEndpoint) -> list[Outgoing]:
         self.writers[remote.guid] = WriterProxy(remote)
         if remote.reliable and self.qos.reliable:  # ask for a heartbeat now (see the module's note)
-            return [self._acknack(self.writers[remote.guid], 1, [], final=False)]
+            # Fast DDS answers an empty ACKNACK at once only when its base is 0 (with 1 it starts its
+            # 3 s heartbeat timer); others take 0 as malformed, so they get 1 (docs/ros2.md, "Restarts")
+            base = 0 if remote.vendor == wire.VENDOR_FASTDDS else 1
+            return [self._acknack(self.writers[remote.guid], base, [], final=False)]
         return []
 
     def unmatch(self, guid: Guid) -> None:

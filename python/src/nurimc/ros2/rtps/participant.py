@@ -13,6 +13,7 @@ import socket
 import struct
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from functools import partial
 
@@ -27,6 +28,9 @@ HEARTBEAT_PERIOD = 0.2
 LEASE = 20.0
 TICK = 0.05
 MAX_DATAGRAM = 65536
+UNKNOWN_KEEP = 2.0  # s a not-yet-discovered writer's submessages are kept for replay
+UNKNOWN_PER_WRITER = 16
+UNKNOWN_WRITERS = 64
 
 
 def _call_each(calls: list[Callable[[], None]]) -> None:
@@ -57,6 +61,7 @@ class Participant:
         self.readers: dict[bytes, Reader] = {}
         self._remote_endpoints: dict[Guid, RemoteEndpoint] = {}
         self._spdp_sn = 0
+        self._unknown: dict[Guid, deque[tuple[float, wire.Submessage]]] = {}  # writers not discovered yet
         self._deferred: list[Callable[[], None]] = []  # reader callbacks, run after the lock is released
         #: runs the deferred callbacks (topics.py gives one that logs a callback's error)
         self.after_receive: Callable[[list[Callable[[], None]]], None] = _call_each
@@ -282,45 +287,69 @@ class Participant:
         if source == self.prefix:
             return
         out: list[Outgoing] = []
-        meta_out: list[Outgoing] = []
         with self._lock:
             for sub in subs:
                 if sub.destination not in (bytes(12), self.prefix):
                     continue
-                if sub.kind == wire.DATA:
-                    item = wire.parse_data(sub)
-                    writer = Guid(sub.source, item.writer)
-                    if item.writer == wire.SPDP_WRITER:
-                        self._on_participant(item, vendor, sub.source)
-                        continue
-                    target = meta_out if item.writer in (wire.SEDP_PUB_WRITER, wire.SEDP_SUB_WRITER) else out
-                    for reader in self._readers_of(writer, item.reader):
-                        target += reader.on_data(writer, item)
-                elif sub.kind == wire.HEARTBEAT:
-                    reader_id, writer_id, first, last, _, final = wire.parse_heartbeat(sub)
-                    writer = Guid(sub.source, writer_id)
-                    target = meta_out if writer_id in (wire.SEDP_PUB_WRITER, wire.SEDP_SUB_WRITER) else out
-                    for reader in self._readers_of(writer, reader_id):
-                        target += reader.on_heartbeat(writer, first, last, final)
-                elif sub.kind == wire.GAP:
-                    reader_id, writer_id, irrelevant, _ = wire.parse_gap(sub)
-                    writer = Guid(sub.source, writer_id)
-                    for reader in self._readers_of(writer, reader_id):
-                        reader.on_gap(writer, irrelevant)
-                elif sub.kind == wire.ACKNACK:
-                    reader_id, writer_id, base, missing = wire.parse_acknack(sub)
-                    local = self.writers.get(writer_id)
-                    if local is not None:
-                        target = meta_out if writer_id in (wire.SEDP_PUB_WRITER, wire.SEDP_SUB_WRITER) else out
-                        target += local.on_acknack(Guid(sub.source, reader_id), base, missing)
+                out += self._dispatch(sub, vendor)
                 remote = self.remote.get(sub.source)
                 if remote is not None:
                     remote.last_seen = time.monotonic()
             calls, self._deferred[:] = list(self._deferred), []
         self._send(out)
-        self._send(meta_out, meta=True)
         if calls:
             self.after_receive(calls)
+
+    def _dispatch(self, sub: wire.Submessage, vendor: tuple[int, int]) -> list[Outgoing]:
+        """One submessage (under the lock); what to send back."""
+        out: list[Outgoing] = []
+        if sub.kind == wire.ACKNACK:
+            reader_id, writer_id, base, missing = wire.parse_acknack(sub)
+            local = self.writers.get(writer_id)
+            return local.on_acknack(Guid(sub.source, reader_id), base, missing) if local is not None else []
+        if sub.kind == wire.DATA:
+            item = wire.parse_data(sub)
+            if item.writer == wire.SPDP_WRITER:
+                self._on_participant(item, vendor, sub.source)
+                return []
+            writer, reader_id = Guid(sub.source, item.writer), item.reader
+        elif sub.kind == wire.HEARTBEAT:
+            reader_id, writer_id, first, last, _, final = wire.parse_heartbeat(sub)
+            writer = Guid(sub.source, writer_id)
+        elif sub.kind == wire.GAP:
+            reader_id, writer_id, irrelevant, _ = wire.parse_gap(sub)
+            writer = Guid(sub.source, writer_id)
+        else:
+            return []
+        readers = self._readers_of(writer, reader_id)
+        if not readers:
+            self._keep_unknown(writer, sub)
+        for reader in readers:
+            if sub.kind == wire.DATA:
+                out += reader.on_data(writer, item)
+            elif sub.kind == wire.HEARTBEAT:
+                out += reader.on_heartbeat(writer, first, last, final)
+            else:
+                reader.on_gap(writer, irrelevant)
+        return out
+
+    def _keep_unknown(self, writer: Guid, sub: wire.Submessage) -> None:
+        """A writer's DATA, HEARTBEAT or GAP before we know the writer: kept for UNKNOWN_KEEP s and
+        replayed when it is discovered. Its one match HEARTBEAT, or a command sent right after it
+        matched our reader, commonly comes before its announcement does (docs/ros2.md, "Restarts")."""
+        if writer.entity[3] & 0xC0 == 0xC0:  # a builtin endpoint's: nothing to replay
+            return
+        if writer not in self._unknown and len(self._unknown) >= UNKNOWN_WRITERS:
+            return  # a flood of made-up writers: keep what is kept
+        kept = self._unknown.setdefault(writer, deque(maxlen=UNKNOWN_PER_WRITER))
+        kept.append((time.monotonic(), sub))
+
+    def _replay(self, writer: Guid) -> list[Outgoing]:
+        kept = self._unknown.pop(writer, None)
+        out: list[Outgoing] = []
+        for _, sub in kept or ():
+            out += self._dispatch(sub, (0, 0))
+        return out
 
     def _readers_of(self, writer: Guid, reader_id: bytes) -> list[Reader]:
         if reader_id != wire.ENTITY_UNKNOWN:
@@ -397,6 +426,7 @@ class Participant:
                         out += reader.match(remote)
                     elif self.on_incompatible is not None:  # best effort offered, reliable needed: no match
                         self._deferred.append(partial(self.on_incompatible, reader, remote))
+            out += self._replay(remote.guid)
         else:
             for local in list(self.writers.values()):
                 compatible = local.qos.reliable or not remote.reliable
@@ -419,6 +449,9 @@ class Participant:
             self._unmatch(Guid(prefix, entity))
 
     def _expire(self, now: float) -> None:
+        for writer, kept in list(self._unknown.items()):
+            if not kept or now - kept[-1][0] > UNKNOWN_KEEP:
+                del self._unknown[writer]
         for prefix, remote in list(self.remote.items()):
             if now - remote.last_seen > remote.lease:
                 self._forget(prefix)

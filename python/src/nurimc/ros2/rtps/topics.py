@@ -185,6 +185,10 @@ class RtpsParticipant:
                     return f"node {node.node_namespace.rstrip('/')}/{node.node_name}"
         return None
 
+    def wait_for_writers(self) -> None:
+        """Nothing to wait for: a sample from a writer not discovered yet is kept and replayed
+        (participant.py), where Cyclone DDS loses it (dds.Participant.wait_for_writers)."""
+
     def node_announcer(self, name: str, namespace: str) -> NodeAnnouncement:
         return NodeAnnouncement(self, node_name(name), namespace)
 
