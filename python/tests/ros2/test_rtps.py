@@ -364,3 +364,57 @@ def test_a_sample_from_a_writer_not_yet_discovered_is_delivered_once_it_is(loopb
         assert got == [sample]
     finally:
         ours.close()
+
+
+def test_a_reply_waits_for_the_clients_reply_reader_to_be_discovered(loopback: None) -> None:
+    """A client asks as soon as it has matched our request reader, which may be before we know its
+    reply reader: the reply waits for that reader (a volatile reply sent before would be lost)."""
+    from nurimc.ros2.interfaces import Trigger_Request, Trigger_Response
+
+    ours = RtpsParticipant()
+    inbox = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    inbox.bind(("127.0.0.1", 0))
+    inbox.settimeout(10)
+    try:
+        ours.service("/t/later", Trigger_Request, Trigger_Response, lambda request: Trigger_Response(True, "yes"))
+        rtps = ours.rtps
+        client = b"\x01\x0f" + os.urandom(10)  # a Fast DDS participant
+        here = Locator.udp4("127.0.0.1", inbox.getsockname()[1])
+        request_writer, reply_reader = Guid(client, b"\x00\x00\x01\x03"), Guid(client, b"\x00\x00\x02\x04")
+
+        def feed(*submessages: bytes) -> None:
+            rtps._receive(wire.header(client) + b"".join(submessages))
+
+        feed(
+            wire.data(
+                wire.ENTITY_UNKNOWN,
+                wire.SPDP_WRITER,
+                1,
+                discovery.participant_data(client, [here], [here], 20, b"", "c"),
+            )
+        )
+        announce = discovery.endpoint_data(
+            request_writer, "rq/t/laterRequest", "std_srvs::srv::dds_::Trigger_Request_", Qos(), b"", [here]
+        )
+        feed(wire.data(wire.SEDP_PUB_READER, wire.SEDP_PUB_WRITER, 1, announce))
+        asked = wire.param_list(wire.param(wire.PID_RELATED_SAMPLE_IDENTITY, reply_reader.raw + wire.pack_sn(-1)))
+        feed(wire.data(wire.ENTITY_UNKNOWN, request_writer.entity, 1, Trigger_Request().serialize(), asked))
+        time.sleep(0.3)  # the request is being answered: the reply reader is announced only now
+        announce = discovery.endpoint_data(
+            reply_reader, "rr/t/laterReply", "std_srvs::srv::dds_::Trigger_Response_", Qos(), b"", [here]
+        )
+        feed(wire.data(wire.SEDP_SUB_READER, wire.SEDP_SUB_WRITER, 1, announce))
+        deadline = time.monotonic() + 10
+        reply = None
+        while reply is None and time.monotonic() < deadline:
+            datagram = inbox.recv(65536)
+            for sub in wire.parse_message(datagram)[2]:
+                if sub.kind == wire.DATA and wire.parse_data(sub).reader == reply_reader.entity:
+                    reply = wire.parse_data(sub)
+        assert reply is not None and reply.payload is not None
+        assert Trigger_Response.deserialize(reply.payload).message == "yes"
+        identity = dict(reply.inline_qos)[wire.PID_RELATED_SAMPLE_IDENTITY]
+        assert identity == reply_reader.raw + wire.pack_sn(1)  # the client's reader, the request's number
+    finally:
+        inbox.close()
+        ours.close()

@@ -191,6 +191,17 @@ class Participant:
             out = writer.write(payload, inline_qos)
         self._send(out, stamp=True)
 
+    def wait_for_reader(self, writer: Writer, prefix: bytes, timeout: float) -> bool:
+        """Until the writer has matched a reader of the participant `prefix` (False after `timeout` s)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            with self._lock:
+                if any(guid.prefix == prefix for guid in writer.readers):
+                    return True
+            if time.monotonic() >= deadline or self._closed.is_set():
+                return False
+            time.sleep(0.005)
+
     def remote_endpoints(self) -> list[RemoteEndpoint]:
         with self._lock:
             return list(self._remote_endpoints.values())

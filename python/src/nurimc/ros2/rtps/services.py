@@ -31,6 +31,10 @@ from .participant import Participant
 
 SERVICE_QOS = Qos(reliable=True, transient_local=False, depth=10)
 CYCLONE_HEADER = 16
+#: s a reply waits for the client's reply reader to be discovered: a client may ask as soon as it
+#: has matched us, before we have heard of its reader, and a volatile reply written before the
+#: match would never reach it (rmw_fastrtps's servers wait the same way)
+REPLY_MATCH_WAIT = 2.0
 MAX_QUEUED = 64  # requests waiting per service; more are dropped (the client times out), never queued forever
 
 
@@ -109,6 +113,8 @@ class ServiceServer:
         if cyclone:
             data = data[:4] + header + data[4:]
         identity = related_identity(item, remote)
+        if not self._participant.wait_for_reader(self.writer, identity[:12], REPLY_MATCH_WAIT):
+            self._log(f"{self.name}: the client's reply reader was not discovered within {REPLY_MATCH_WAIT:g} s")
         inline = wire.param_list(
             wire.param(wire.PID_RELATED_SAMPLE_IDENTITY, identity),
             wire.param(wire.PID_CUSTOM_RELATED_SAMPLE_IDENTITY, identity),
