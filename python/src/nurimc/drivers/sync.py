@@ -129,6 +129,8 @@ class Bus:
         """`then(request(request))` under the bus lock: what a handle's one-request calls
         (read_state, get) run, through the fast path when it applies (docs/performance.md)."""
         with self._lock:
+            if self._fast_path and not self._listeners.items:  # request(), inline: every reading comes here
+                return then(fastpath.ask(self.core, self.transport, self.clock, request))
             return then(self.request(request))
 
     def _request_each(

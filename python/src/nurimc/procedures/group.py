@@ -11,14 +11,14 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 from ..core.actions import Now, Procedure
 from ..core.buscore import BusCore
 from ..core.handles import AsyncHandle, AsyncRunner, HandleCall, SyncHandle, SyncRunner
 from ..errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
-from ..protocol import Command, RequestPosition, SetResponseTime
+from ..protocol import Command, Message, RequestPosition, SetResponseTime
 from .motor import AsyncMotor, Motor, MotorProcedures, MotorState
 from .settings import SETTINGS
 
@@ -133,7 +133,13 @@ def _read_states_in_place(bus: Any, group: GroupProcedures) -> dict[int, MotorSt
     """GroupProcedures.read_states through the bus's single-request calls (drivers/fastpath.py):
     one request per motor under one hold of the bus lock, the same errors kept per motor."""
     motors = group.motors
-    states = bus._request_each(((m.state_request(), m.state_from) for m in motors), (NoAnswer, UnexpectedAnswer))
+    now = bus.clock.now
+
+    def reading(motor: MotorProcedures) -> Callable[[Message], MotorState]:
+        return lambda answer: motor.state_from(answer, now())  # when it was read, as read_state
+
+    asks = [(m.state_request(), reading(m)) for m in motors]
+    states = bus._request_each(asks, (NoAnswer, UnexpectedAnswer))
     return dict(zip([m.id for m in motors], states, strict=True))
 
 
