@@ -24,6 +24,7 @@ from zlib import adler32
 from ..core.actions import Procedure, Send, Sent
 from ..core.buscore import BusCore
 from ..core.clock import Clock
+from ..core.timing import Timing
 from ..protocol import Message, Request, StreamParser
 from ..protocol._tables import HEADER
 from ..protocol.parser import answer_unpacker
@@ -39,26 +40,37 @@ def enabled() -> bool:
     return os.environ.get(NO_FAST_PATH, "") in ("", "0")
 
 
-#: per request: its plan as BusCore keeps it (frame, answer class, answer length), the answer's
-#: first four bytes (header, ID, size), its mode byte and the unpack of its ID and fields (None:
-#: the line's table reads the mode otherwise, the general parser decides); at most PLANS kept
-Quick = tuple[tuple[bytes, type[Message], int], bytes, int, Any]
+class Quick:
+    """What the fast path keeps per request: its plan as BusCore keeps it (frame, answer class,
+    answer length); the answer's first four bytes (header, ID, size), its mode byte and the
+    unpack of its ID and fields (None: the line's table reads the mode otherwise, so the general
+    parser decides); and, worked out again only when what they depend on changes, the product
+    line check passed (for `product`) and the deadline and duplicate gap (for a rate, a timing
+    and a response time)."""
+
+    __slots__ = ("baudrate", "deadline", "gap", "head", "mode", "plan", "product", "response", "timing", "unpack")
+
+    def __init__(self, core: BusCore, request: Request) -> None:
+        plan = core._plans.get(request)
+        if plan is None:
+            plan = core._plan(request)
+        self.plan = plan
+        spec = plan[1].SPEC
+        self.head = HEADER + bytes((request.id, spec.size))
+        self.mode = spec.mode
+        self.unpack: Any = answer_unpacker(plan[1], request.LINE)
+        self.product: object = _UNCHECKED
+        self.baudrate = 0
+        self.timing: Timing | None = None
+        self.response: float | None = None
+        self.deadline = self.gap = 0.0
+
+
+_UNCHECKED = object()
+#: the requests' Quick, shared by every bus (what it keeps depends on the request, or is checked)
 _QUICK: dict[Request, Quick] = {}
 PLANS = 1024
 _NEW = tuple.__new__
-
-
-def _quick(core: BusCore, request: Request) -> Quick:
-    plan = core._plans.get(request)
-    if plan is None:
-        plan = core._plan(request)
-    cls = plan[1]
-    spec = cls.SPEC
-    quick = (plan, HEADER + bytes((request.id, spec.size)), spec.mode, answer_unpacker(cls, request.LINE))
-    if len(_QUICK) >= PLANS:
-        _QUICK.clear()
-    _QUICK[request] = quick
-    return quick
 
 
 def ask(core: BusCore, transport: Transport, clock: Clock, request: Request, retries: int | None = None) -> Message:
@@ -67,18 +79,27 @@ def ask(core: BusCore, transport: Transport, clock: Clock, request: Request, ret
     rid = request.id
     if core._waits_pending or rid in core._owed:  # a busy window to wait out, a fence to send
         return _run(core.ask(request, retries), transport, clock)
-    core.in_its_line(request)
     quick = _QUICK.get(request)
     if quick is None:
-        quick = _quick(core, request)
-    plan, head, mode, unpack = quick
+        if len(_QUICK) >= PLANS:
+            _QUICK.clear()
+        quick = _QUICK[request] = Quick(core, request)
+    product = core.products.get(rid)
+    if product != quick.product:  # the product line check (in_its_line), once per product
+        core.in_its_line(request)
+        quick.product = product
+    plan = quick.plan
     frame, cls, answer_len = plan
-    baudrate, timing = core.baudrate, core.timing
-    deadline = timing.answer_deadline(len(frame), answer_len, baudrate, core.response_times.get(rid))
+    baudrate, timing, response = core.baudrate, core.timing, core.response_times.get(rid)
+    if baudrate != quick.baudrate or timing is not quick.timing or response != quick.response:
+        quick.deadline = timing.answer_deadline(len(frame), answer_len, baudrate, response)
+        quick.gap = 2 * timing.wire_time(1, baudrate)
+        quick.baudrate, quick.timing, quick.response = baudrate, timing, response
+    deadline = quick.deadline
     now = clock.now
     last = core._last_seen.get(rid)
     if last is not None and type(last[0]) is cls:  # the duplicate gap (as ask: WaitUntil(gap))
-        gap = last[1] + 2 * timing.wire_time(1, baudrate)
+        gap = last[1] + quick.gap
         if now() < gap:
             delay = gap - now()
             if delay > 0:
@@ -104,8 +125,9 @@ def ask(core: BusCore, transport: Transport, clock: Clock, request: Request, ret
             core._now = now()
             message: Message | None = None
             if len(data) == answer_len:
+                unpack = quick.unpack
                 if unpack is not None:  # the one answer expected, read straight from its bytes
-                    if data.startswith(head) and data[5] == mode and not adler32(data[2:]) & 0xFF:
+                    if data.startswith(quick.head) and data[5] == quick.mode and not adler32(data[2:]) & 0xFF:
                         message = _NEW(cls, unpack(data, 2))
                 else:
                     parser = StreamParser(line=request.LINE)

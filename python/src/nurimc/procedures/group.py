@@ -11,14 +11,14 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 from ..core.actions import Now, Procedure
 from ..core.buscore import BusCore
 from ..core.handles import AsyncHandle, AsyncRunner, HandleCall, SyncHandle, SyncRunner
 from ..errors import InputError, NoAnswer, UnexpectedAnswer, UsageError
-from ..protocol import Command, Message, RequestPosition, SetResponseTime
+from ..protocol import Command, RequestPosition, SetResponseTime
 from .motor import AsyncMotor, Motor, MotorProcedures, MotorState
 from .settings import SETTINGS
 
@@ -129,18 +129,20 @@ class AsyncBusLike(AsyncRunner, Protocol):
     def motor(self, device_id: int, product: str = "mc") -> AsyncMotor: ...
 
 
-def _read_states_in_place(bus: Any, group: GroupProcedures) -> dict[int, MotorState | Exception]:
-    """GroupProcedures.read_states through the bus's single-request calls (drivers/fastpath.py):
-    one request per motor under one hold of the bus lock, the same errors kept per motor."""
-    motors = group.motors
-    now = bus.clock.now
-
-    def reading(motor: MotorProcedures) -> Callable[[Message], MotorState]:
-        return lambda answer: motor.state_from(answer, now())  # when it was read, as read_state
-
-    asks = [(m.state_request(), reading(m)) for m in motors]
-    states = bus._request_each(asks, (NoAnswer, UnexpectedAnswer))
+def read_states_now(bus: Any, motors: Sequence[MotorProcedures]) -> dict[int, MotorState | Exception]:
+    """`read_states(motors)` on a sync bus: through its single-request calls when it has them
+    (drivers/fastpath.py; one request per motor under one hold of the bus lock, the same errors
+    kept per motor, each reading converted with the time it was read, as read_state), else run as
+    the procedure. Group.read_states and the ROS 2 bridge's round read this way."""
+    if getattr(bus, "_request_each", None) is None:
+        return dict(bus.run(read_states(motors)))
+    states = bus._request_each([(m.state_request(), m.state_from) for m in motors], (NoAnswer, UnexpectedAnswer))
     return dict(zip([m.id for m in motors], states, strict=True))
+
+
+def _read_states_in_place(bus: Any, group: GroupProcedures) -> dict[int, MotorState | Exception]:
+    """GroupProcedures.read_states through the bus's single-request calls (read_states_now)."""
+    return read_states_now(bus, group.motors)
 
 
 class GroupApi:

@@ -581,10 +581,7 @@ class MotorApi:
     stop = HandleCall(MotorProcedures.stop)
     release = HandleCall(MotorProcedures.release)
     hold = HandleCall(MotorProcedures.hold)
-    read_state = HandleCall(
-        MotorProcedures.read_state,
-        lambda bus, m: bus._request_then(m.state_request(), lambda answer: m.state_from(answer, bus.clock.now())),
-    )
+    read_state = HandleCall(MotorProcedures.read_state, lambda bus, m: bus._read_then(m.state_request(), m.state_from))
     read_speed = HandleCall(MotorProcedures.read_speed)
     ping = HandleCall(MotorProcedures.ping)
     get = HandleCall(MotorProcedures.get, lambda bus, m, name: _get_in_place(bus, m, name))
