@@ -95,22 +95,20 @@ class MotorState:
 
 
 @functools.cache
-def _feedback(cls: type[Message]) -> tuple[bool, int, int, int, int, float, int]:
+def _feedback(cls: type[Message]) -> tuple[bool, int, int, int, int, int]:
     """How state_from reads an answer class: whether its speed is signed (speed feedback), the
-    indexes of direction, position, speed and current in the message, the position's scale and
-    its decimals (position feedback 0.01 deg; speed feedback 0.1 deg, erratum 6)."""
+    indexes of direction, position, speed and current in the message, and the position's steps
+    per degree (position feedback 0.01 deg; speed feedback 0.1 deg, erratum 6)."""
     name = cls.SPEC.name
     assert name in ("position_feedback", "speed_feedback"), name
     index = {field: i + 1 for i, field in enumerate(cls.SPEC.field_names)}
-    scale = 0.1 if name == "speed_feedback" else 0.01
     return (
         name == "speed_feedback",
         index["direction"],
         index["position"],
         index["speed"],
         index["current"],
-        scale,
-        units._decimals(scale),
+        10 if name == "speed_feedback" else 100,
     )
 
 
@@ -383,11 +381,13 @@ class MotorProcedures:
         line without one (SM), from a speed feedback answer: position in its 0.1 deg, speed signed.
         `at`: when it was read (the bus clock), for the multi-turn tracking (nurimc.procedures.multiturn);
         `sign`: the speed's sign when known otherwise (speed feedback read just after)."""
-        # every reading comes here: the fields by index, each scaled as units.from_wire does
-        signed, i_direction, i_position, i_speed, i_current, position_scale, position_decimals = _feedback(type(answer))
+        # every reading comes here: the fields by index, each scaled as units.from_wire does (a
+        # wire integer / 10 or / 100 is exactly its round(raw * 0.1, 1) or round(raw * 0.01, 2):
+        # division is correctly rounded; tests/client/test_units_and_tracking.py checks every value)
+        signed, i_direction, i_position, i_speed, i_current, position_steps = _feedback(type(answer))
         direction = answer[i_direction]
-        device = round(answer[i_position] * position_scale, position_decimals)
-        speed = round(answer[i_speed] * 0.1, 1)
+        device = answer[i_position] / position_steps
+        speed = answer[i_speed] / 10
         if direction == 1:  # signed_degrees: CW is negative
             device = -device
             if signed:
@@ -405,7 +405,7 @@ class MotorProcedures:
             position,
             device,
             speed,
-            round(answer[i_current] * 0.1, 1),
+            answer[i_current] / 10,
             "cw" if direction == 1 else "ccw",
             signed or tracked is not None or abs(speed) < STOPPED_RPM,
             uncertain,
