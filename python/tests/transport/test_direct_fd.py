@@ -102,6 +102,48 @@ def test_a_size_read_steadily_wakes_the_reader_once_it_has_all_come_and_any_othe
             os.write(master, b"twelve bytes")
             assert transport.read(12, 5.0) == b"twelve bytes"
         assert vmin(fd) == 12
+        # the same rate again: pyserial writes nothing then (its VMIN 0 included), ours stays; a
+        # read of another size must still see its bytes at once, not wait for 12 to its deadline
+        transport.baudrate = 57600
+        os.write(master, b"ping!!")
+        started = time.monotonic()
+        assert transport.read(6, 2.0) == b"ping!!"
+        assert time.monotonic() - started < 1.0 and vmin(fd) == 0
+        transport.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_where_select_does_not_wait_for_vmin_bytes_a_read_still_returns_the_whole_size(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import fcntl
+    import select
+    import struct
+
+    def any_byte_select(
+        r: list[int], w: list[int], x: list[int], timeout: float
+    ) -> tuple[list[int], list[int], list[int]]:
+        end = time.monotonic() + timeout  # readable as soon as one byte waits (VMIN ignored)
+        while True:
+            waiting = struct.unpack("I", fcntl.ioctl(r[0], termios.FIONREAD, b"\0\0\0\0"))[0]
+            if waiting or time.monotonic() >= end:
+                return (r if waiting else []), [], []
+            time.sleep(0.001)
+
+    master, slave = os.openpty()
+    try:
+        transport = open_transport(os.ttyname(slave), 115200)
+        for _ in range(STEADY):
+            os.write(master, b"twelve bytes")
+            assert transport.read(12, 5.0) == b"twelve bytes"
+        monkeypatch.setattr(select, "select", any_byte_select)
+        os.write(master, b"twelve")
+        threading.Timer(0.05, os.write, (master, b" bytes")).start()
+        assert transport.read(12, 5.0) == b"twelve bytes"  # not the first piece alone
+        os.write(master, b"short")
+        assert transport.read(12, 0.2) == b"short"  # and what came, at the deadline
         transport.close()
     finally:
         os.close(master)

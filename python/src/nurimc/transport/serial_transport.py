@@ -38,6 +38,18 @@ STEADY = 3
 SET_RATE_ERRORS: tuple[type[Exception], ...] = (serial.SerialException, OSError, ValueError, *TERMIOS_ERRORS)
 
 
+def _what_came(fd: int, max_bytes: int) -> bytes:
+    """At a read's deadline with VMIN set: the bytes that came, fewer than VMIN (select() did
+    not report them), by one non-blocking read."""
+    try:
+        data = os.read(fd, max_bytes)
+    except BlockingIOError:
+        return b""
+    if not data:
+        raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+    return data
+
+
 def refuses_rate(err: Exception) -> bool:
     """Does this error from setting a rate say the adapter cannot do that rate (EINVAL), rather
     than that the port is gone? pyserial raises ValueError for a custom rate the driver refuses,
@@ -100,9 +112,9 @@ class SerialTransport:
         #: for waiting bytes on its fd directly, a few system calls and pyserial's Python fewer a
         #: request (docs/performance.md); anything else goes through pyserial
         self._direct: int | None = self._fd if type(port) is serial.Serial and INQ is not None else None
-        #: the terminal's VMIN as this transport last set it (0: pyserial's, untouched), and the
-        #: size the last reads asked for with how many in a row (see _wake_at)
-        self._vmin = 0
+        #: the terminal's VMIN as this transport last set it (-1: not known, set at the next read),
+        #: and the size the last reads asked for with how many in a row (see _wake_at)
+        self._vmin = -1
         self._asked = (0, 0)
 
     @property
@@ -118,7 +130,9 @@ class SerialTransport:
                 self.fixed_rate,
             )
         before = self.port.baudrate
-        self._vmin = 0  # pyserial writes the whole termios again: its VMIN (0) included
+        # pyserial writes the termios again, with its VMIN (0), but only if something else changed
+        # (the same rate again: not written, our VMIN stays): not known, so set at the next read
+        self._vmin = -1
         try:
             self.port.baudrate = rate
         except SET_RATE_ERRORS as err:
@@ -183,18 +197,21 @@ class SerialTransport:
     def _read_whole(fd: int, max_bytes: int, timeout: float) -> bytes:
         """`_read_fd` when the terminal's VMIN is `max_bytes`: one select() until the whole of
         it has come or the deadline, then one read of what is there (a part, at the deadline)."""
+        deadline = time.monotonic() + timeout
         if timeout > 0 and select.select([fd], [], [], timeout)[0]:
             data = os.read(fd, max_bytes)
             if not data:
                 raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+            while len(data) < max_bytes:  # only where select() does not wait for VMIN bytes
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or not select.select([fd], [], [], remaining)[0]:
+                    return data + _what_came(fd, max_bytes - len(data))
+                chunk = os.read(fd, max_bytes - len(data))
+                if not chunk:
+                    raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+                data += chunk
             return data
-        try:  # the deadline: what came of it (select() waited for all of it)
-            data = os.read(fd, max_bytes)
-        except BlockingIOError:
-            return b""
-        if not data:
-            raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
-        return data
+        return _what_came(fd, max_bytes)  # the deadline: select() waited for all of it
 
     @staticmethod
     def _read_fd(fd: int, max_bytes: int, timeout: float) -> bytes:
