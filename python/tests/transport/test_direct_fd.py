@@ -148,3 +148,21 @@ def test_where_select_does_not_wait_for_vmin_bytes_a_read_still_returns_the_whol
     finally:
         os.close(master)
         os.close(slave)
+
+
+def test_a_port_gone_when_vmin_is_set_is_a_port_error() -> None:
+    master, slave = os.openpty()
+    transport = open_transport(os.ttyname(slave), 115200)
+    try:
+        for _ in range(STEADY - 1):
+            os.write(master, b"twelve bytes")
+            assert transport.read(12, 5.0) == b"twelve bytes"
+        os.close(master)  # the adapter unplugged: the next read sets VMIN on a terminal that is gone
+        master = -1
+        with pytest.raises(PortError):
+            transport.read(12, 0.5)
+    finally:
+        transport.close()
+        os.close(slave)
+        if master >= 0:
+            os.close(master)

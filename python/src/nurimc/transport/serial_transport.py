@@ -187,10 +187,13 @@ class SerialTransport:
         self._asked = (max_bytes, count)
         want = max_bytes if count >= STEADY and 1 < max_bytes <= 255 else 0
         if want != self._vmin:
-            attrs = termios.tcgetattr(fd)
-            attrs[6][termios.VMIN] = want
-            attrs[6][termios.VTIME] = 0
-            termios.tcsetattr(fd, termios.TCSANOW, attrs)
+            try:
+                attrs = termios.tcgetattr(fd)
+                attrs[6][termios.VMIN] = want
+                attrs[6][termios.VTIME] = 0
+                termios.tcsetattr(fd, termios.TCSANOW, attrs)
+            except termios.error as err:  # not an OSError: the port is gone (EIO), as a read would say
+                raise OSError(*err.args) from err
             self._vmin = want
 
     @staticmethod
