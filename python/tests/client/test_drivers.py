@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import asyncio
 import inspect
+import time
 from collections.abc import Callable
 
 import pytest
 
 from nurimc import AsyncBus, Bus, NurimcError, PortError
 from nurimc.core.actions import Procedure, Send, Wait
-from nurimc.core.clock import REAL_CLOCK, Clock, VirtualClock
+from nurimc.core.clock import REAL_CLOCK, SPIN, Clock, RealClock, VirtualClock
 from nurimc.drivers.aio import drive_async
 from nurimc.drivers.sync import drive
 from nurimc.errors import CallTimeout
@@ -278,3 +279,21 @@ def test_a_line_that_never_stops_does_not_keep_a_late_read_going() -> None:
         bus.request(RequestPing(1))
     deadline = bus.core.timing.answer_deadline(6, 6, 9600, None)
     assert clock.now() - start < deadline + 0.02  # the deadline holds, babbling or not
+
+
+@pytest.mark.parametrize("seconds", [0.0, 20e-6, SPIN, 0.002])
+def test_the_real_clock_lets_at_least_the_time_pass_short_waits_spun_long_ones_slept(
+    seconds: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    slept: list[float] = []
+    sleep = time.sleep
+
+    def counted(s: float) -> None:
+        slept.append(s)
+        sleep(s)
+
+    monkeypatch.setattr(time, "sleep", counted)
+    started = time.monotonic()
+    RealClock().sleep(seconds)
+    assert time.monotonic() - started >= seconds
+    assert slept == ([seconds] if seconds > SPIN else [])  # a few byte times: no context switch

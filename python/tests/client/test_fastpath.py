@@ -13,12 +13,12 @@ from typing import Any
 import pytest
 
 from nurimc import Bus, Group
-from nurimc.core.clock import RealClock
+from nurimc.core.clock import RealClock, VirtualClock
 from nurimc.drivers import fastpath
 from nurimc.drivers.perform import LATE_READ
 from nurimc.drivers.perform import run_in_place as real
 from nurimc.errors import PortError
-from nurimc.protocol import Ping, PositionFeedback, RequestPosition
+from nurimc.protocol import Ping, PositionFeedback, RequestPosition, SpeedFeedback
 
 from .fakes import ScriptedTransport
 from .simfixtures import sim_bus
@@ -60,6 +60,8 @@ SCENARIOS: dict[str, Callable[[], ChunkedTransport]] = {
     "another ID answers": lambda: ChunkedTransport([OTHER.encode()] * 3),
     "another ID, then ours": lambda: ChunkedTransport([OTHER.encode() + ANSWER.encode()] * 3),
     "a ping instead": lambda: ChunkedTransport([Ping(3).encode()] * 3),
+    # as long as the answer, its header and ID right: only the mode byte tells it is not the answer
+    "speed feedback instead": lambda: ChunkedTransport([SpeedFeedback(3, 0, 15, 1800, 2).encode()] * 3),
     "stale answer waiting": lambda: ChunkedTransport([ANSWER.encode()] * 3, waiting=STALE.encode()),
     "noise waiting": lambda: ChunkedTransport([ANSWER.encode()] * 3, waiting=b"\x01\xff\x02"),
     "answer and noise": lambda: ChunkedTransport([ANSWER.encode() + b"\xff"] * 3),
@@ -204,3 +206,15 @@ def test_a_host_waking_past_the_deadline_takes_the_answer(fast: bool, monkeypatc
     assert bus.request(RequestPosition(3)) == ANSWER
     assert reads == [LATE_READ, LATE_READ]  # each read started past its deadline
     assert (bus.core.stats.answers, bus.core.stats.retries, bus.core._owed) == (2, 0, {})
+
+
+@pytest.mark.parametrize("fast", [True, False], ids=["fast", "procedure"])
+def test_group_reads_give_each_reading_the_time_it_was_read(fast: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the multi-turn tracking needs the time between readings (a gap too long is marked uncertain)
+    monkeypatch.setenv(fastpath.NO_FAST_PATH, "" if fast else "1")
+    clock = VirtualClock()
+    answers = {i: PositionFeedback(i, 0, 1000 * i, 0, 0).encode() for i in (1, 2)}
+    bus = Bus(ScriptedTransport(lambda data: answers[data[2]]), clock=clock)
+    group = Group(bus, [1, 2])
+    assert [s.device_position for s in group.read_states().values()] == [10.0, 20.0]  # type: ignore[union-attr]
+    assert [m.procedures.tracker._at for m in group.motors] == [clock.now(), clock.now()]

@@ -19,6 +19,12 @@ def test_rounding_is_decimal_and_half_away_from_zero() -> None:
     assert units.microseconds_to_wire(250) == 3  # 2.5 steps -> 3
 
 
+def test_a_feedback_value_divided_by_its_steps_is_exactly_from_wire() -> None:
+    # Motor.state_from divides (every reading comes through it); from_wire is the rule
+    for raw in range(-65536, 65536):
+        assert raw / 100 == units.from_wire(raw, 0.01) and raw / 10 == units.from_wire(raw, 0.1), raw
+
+
 @pytest.mark.parametrize(
     ("name", "value", "raw"),
     [

@@ -29,7 +29,6 @@ import typer.main
 
 from .. import __version__
 from ..errors import NurimcError
-from ..protocol import PRODUCTS
 from .command_index import COMMAND_INDEX
 from .common import (
     CLICK_ERROR,
@@ -200,6 +199,8 @@ def main_options(
         False, "--version", is_eager=True, callback=lambda shown: _print_version(shown), help="Print the version."
     ),
 ) -> None:
+    from ..protocol import PRODUCTS  # here: `nurimc --help` and `--version` never build the product table
+
     if product is not None and product not in PRODUCTS:
         raise InputBadParameter(f"--product: {product!r} is not a product; use one of {', '.join(PRODUCTS)}")
     ctx.obj = Options(port, check_baud(baud), parse_ids(ids), json_output, verbose, product or "mc")

@@ -25,12 +25,11 @@ from rich.text import Text
 from typer.core import TyperCommand
 
 from ..errors import InputError, PortError
-from ..inputs import Rounded, id_list, integer, number, on_grid, range_text, with_unit
-from ..protocol import BAUD_RATES, StreamParser
 from .i18n import tr
 
 if TYPE_CHECKING:  # the bus client (pyserial and all) loads when a command opens a bus, not for --help
     from ..drivers.sync import Bus
+    from ..inputs import Rounded
     from ..procedures.motor import Motor
 
 EXIT_OK, EXIT_DEVICE, EXIT_USAGE = 0, 1, 2
@@ -143,10 +142,14 @@ class Number:
     @property
     def allowed(self) -> str:
         """For --help: `0.1..6553.3 RPM, steps of 0.1`."""
+        from ..inputs import range_text, with_unit  # here: `nurimc --help` never needs nurimc.inputs
+
         steps = f", steps of {with_unit(self.step, self.unit)}" if self.step else ", whole" if self.whole else ""
         return range_text(self.low, self.high, self.unit) + steps
 
     def __call__(self, value: Any) -> Any:
+        from ..inputs import integer, number, on_grid
+
         try:
             if self.whole:
                 return integer(value, self.name, int(self.low), int(self.high), self.unit)
@@ -177,6 +180,8 @@ def report(rounded: Rounded, name: str, unit: str) -> float:
 
 def parse_ids(text: str | None, name: str = "--id") -> list[int]:
     """'1', '1,2,5', '0-3' -> IDs 0..254 (nurimc.inputs.id_list), each once, in order (usage error otherwise)."""
+    from ..inputs import id_list
+
     try:
         return list(dict.fromkeys(id_list(text or "", name)))
     except InputError as error:
@@ -184,6 +189,9 @@ def parse_ids(text: str | None, name: str = "--id") -> list[int]:
 
 
 def check_baud(rate: object, name: str = "--baud") -> int:
+    from ..inputs import integer
+    from ..protocol import BAUD_RATES  # here, as nurimc.inputs: `nurimc --help` needs neither table
+
     rates = ", ".join(map(str, BAUD_RATES))
     try:
         value = integer(rate, name, min(BAUD_RATES), max(BAUD_RATES), "bps")
@@ -199,6 +207,8 @@ class FramePrinter:
     re-encodes (a broadcast ping to ID 255 is valid on the wire but not as a typed message)."""
 
     def __init__(self) -> None:
+        from ..protocol import StreamParser  # here: the message classes load with -v, not for --help
+
         self.parsers = {"tx": StreamParser(), "rx": StreamParser()}
 
     def record(self, direction: str, data: bytes) -> None:

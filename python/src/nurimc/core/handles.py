@@ -83,10 +83,7 @@ class HandleCall(Generic[P, T]):
         in_place = self.in_place
         call: Callable[P, Any]
         if in_place is not None and getattr(bus, "_request_then", None) is not None:
-
-            @functools.wraps(procedure)
-            def call(*args: P.args, **kwargs: P.kwargs) -> Any:
-                return in_place(bus, procedures, *args, **kwargs)
+            call = functools.wraps(procedure)(functools.partial(in_place, bus, procedures))  # no frame of its own
 
         else:
 

@@ -129,12 +129,20 @@ class AsyncBusLike(AsyncRunner, Protocol):
     def motor(self, device_id: int, product: str = "mc") -> AsyncMotor: ...
 
 
-def _read_states_in_place(bus: Any, group: GroupProcedures) -> dict[int, MotorState | Exception]:
-    """GroupProcedures.read_states through the bus's single-request calls (drivers/fastpath.py):
-    one request per motor under one hold of the bus lock, the same errors kept per motor."""
-    motors = group.motors
-    states = bus._request_each(((m.state_request(), m.state_from) for m in motors), (NoAnswer, UnexpectedAnswer))
+def read_states_now(bus: Any, motors: Sequence[MotorProcedures]) -> dict[int, MotorState | Exception]:
+    """`read_states(motors)` on a sync bus: through its single-request calls when it has them
+    (drivers/fastpath.py; one request per motor under one hold of the bus lock, the same errors
+    kept per motor, each reading converted with the time it was read, as read_state), else run as
+    the procedure. Group.read_states and the ROS 2 bridge's round read this way."""
+    if getattr(bus, "_request_each", None) is None:
+        return dict(bus.run(read_states(motors)))
+    states = bus._request_each([(m.state_request(), m.state_from) for m in motors], (NoAnswer, UnexpectedAnswer))
     return dict(zip([m.id for m in motors], states, strict=True))
+
+
+def _read_states_in_place(bus: Any, group: GroupProcedures) -> dict[int, MotorState | Exception]:
+    """GroupProcedures.read_states through the bus's single-request calls (read_states_now)."""
+    return read_states_now(bus, group.motors)
 
 
 class GroupApi:

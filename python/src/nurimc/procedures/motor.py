@@ -94,6 +94,24 @@ class MotorState:
     position_uncertain: bool = False
 
 
+@functools.cache
+def _feedback(cls: type[Message]) -> tuple[bool, int, int, int, int, int]:
+    """How state_from reads an answer class: whether its speed is signed (speed feedback), the
+    indexes of direction, position, speed and current in the message, and the position's steps
+    per degree (position feedback 0.01 deg; speed feedback 0.1 deg, erratum 6)."""
+    name = cls.SPEC.name
+    assert name in ("position_feedback", "speed_feedback"), name
+    index = {field: i + 1 for i, field in enumerate(cls.SPEC.field_names)}
+    return (
+        name == "speed_feedback",
+        index["direction"],
+        index["position"],
+        index["speed"],
+        index["current"],
+        10 if name == "speed_feedback" else 100,
+    )
+
+
 def _direction(value: float) -> int:
     return 1 if value < 0 else 0
 
@@ -138,6 +156,7 @@ class MotorProcedures:
         #: the product line's message table (spec/lines.json): every frame is built in it
         self.line = product_line(product)
         self._requests: dict[str, Request] = {}
+        self._state_request: Request | None = None  # what read_state sends, once known
         self.tracker = TurnTracker()
         self._relative: bool | None = None  # position mode, read before the first move
         self._target: float | None = None  # the last move's target, device degrees (None: a speed)
@@ -362,32 +381,34 @@ class MotorProcedures:
         line without one (SM), from a speed feedback answer: position in its 0.1 deg, speed signed.
         `at`: when it was read (the bus clock), for the multi-turn tracking (nurimc.procedures.multiturn);
         `sign`: the speed's sign when known otherwise (speed feedback read just after)."""
-        f = answer.fields()
-        signed = answer.name == "speed_feedback"
-        if signed:
-            device = signed_degrees(f["direction"], units.from_wire(f["position"], 0.1))
-            speed = signed_degrees(f["direction"], units.from_wire(f["speed"], 0.1))
-        else:
-            assert answer.name == "position_feedback", answer
-            device = signed_degrees(f["direction"], units.from_wire(f["position"], 0.01))
-            speed = units.from_wire(f["speed"], 0.1)  # a magnitude: its sign is the trend's
+        # every reading comes here: the fields by index, each scaled as units.from_wire does (a
+        # wire integer / 10 or / 100 is exactly its round(raw * 0.1, 1) or round(raw * 0.01, 2):
+        # division is correctly rounded; tests/client/test_units_and_tracking.py checks every value)
+        signed, i_direction, i_position, i_speed, i_current, position_steps = _feedback(type(answer))
+        direction = answer[i_direction]
+        device = answer[i_position] / position_steps
+        speed = answer[i_speed] / 10
+        if direction == 1:  # signed_degrees: CW is negative
+            device = -device
+            if signed:
+                speed = -speed
         if sign is not None and not signed:
             speed, signed = speed * sign, True
         sent = self.core.commands_sent
-        told = sent.get(self.id, 0) + sent.get(BROADCAST_ID, 0)
-        step = self.tracker.step(device, speed * 6.0, at, signed=signed, commands=told)
-        if not signed and self.tracker.sign < 0:
+        told = sent.get(self.id, 0) + sent.get(BROADCAST_ID, 0) if sent else 0
+        tracker = self.tracker
+        position, uncertain, tracked = tracker.advance(device, speed * 6.0, at, signed, told)
+        if not signed and tracker.sign < 0:
             speed = -speed
-        known = signed or step.speed is not None or abs(speed) < STOPPED_RPM
         return MotorState(
-            id=self.id,
-            position=step.position,
-            device_position=device,
-            speed=speed,
-            current=units.from_wire(f["current"], 0.1),
-            direction="cw" if f["direction"] == 1 else "ccw",
-            speed_signed=known,
-            position_uncertain=step.uncertain,
+            self.id,
+            position,
+            device,
+            speed,
+            answer[i_current] / 10,
+            "cw" if direction == 1 else "ccw",
+            signed or tracked is not None or abs(speed) < STOPPED_RPM,
+            uncertain,
         )
 
     def read_state(self) -> Procedure[MotorState]:
@@ -398,7 +419,11 @@ class MotorProcedures:
 
     def state_request(self) -> Request:
         """The request read_state sends."""
-        return self._request("request_position" if self.line.has("request_position") else "request_speed", "a reading")
+        kept = self._state_request
+        if kept is None:
+            name = "request_position" if self.line.has("request_position") else "request_speed"
+            kept = self._state_request = self._request(name, "a reading")
+        return kept
 
     def read_speed(self) -> Procedure[float]:
         """Signed speed in RPM (CCW +) from speed feedback (§20)."""
@@ -556,10 +581,7 @@ class MotorApi:
     stop = HandleCall(MotorProcedures.stop)
     release = HandleCall(MotorProcedures.release)
     hold = HandleCall(MotorProcedures.hold)
-    read_state = HandleCall(
-        MotorProcedures.read_state,
-        lambda bus, m: bus._request_then(m.state_request(), lambda answer: m.state_from(answer, bus.clock.now())),
-    )
+    read_state = HandleCall(MotorProcedures.read_state, lambda bus, m: bus._read_then(m.state_request(), m.state_from))
     read_speed = HandleCall(MotorProcedures.read_speed)
     ping = HandleCall(MotorProcedures.ping)
     get = HandleCall(MotorProcedures.get, lambda bus, m, name: _get_in_place(bus, m, name))

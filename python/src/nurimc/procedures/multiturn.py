@@ -132,14 +132,34 @@ class TurnTracker:
         """Take a reading: the device's signed position (deg), its speed (deg/s; a magnitude
         unless `signed`), when it was read (s, any monotonic clock) and how many commands had
         been sent to the motor by then (None: not known)."""
-        speeds = _options(speed, signed)
-        still = speed is not None and abs(speed) < STILL
+        return TurnStep(*self.advance(device_degrees, speed, at, signed, commands))
+
+    def advance(
+        self,
+        device_degrees: float,
+        speed: float | None = None,
+        at: float | None = None,
+        signed: bool = False,
+        commands: int | None = None,
+    ) -> tuple[float, bool, float | None]:
+        """`step` as a plain tuple (position, uncertain, speed): what a reading's conversion
+        (Motor.state_from, on every reading) takes, without a TurnStep to build."""
+        if speed is None:  # _options, inline
+            speeds: tuple[float, ...] = ()
+            still = False
+        elif signed or -STILL < speed < STILL:
+            speeds = (speed,)
+            still = -STILL < speed < STILL
+        else:
+            speeds = (abs(speed), -abs(speed))
+            still = False
         quiet = commands is not None and commands == self._commands
-        if self._last is None:
+        last = self._last
+        if last is None:
             self.position = device_degrees
             known = None
         else:
-            shortest = (device_degrees - self._last + WRAP_DEGREES / 2) % WRAP_DEGREES - WRAP_DEGREES / 2
+            shortest = (device_degrees - last + WRAP_DEGREES / 2) % WRAP_DEGREES - WRAP_DEGREES / 2
             gap = None if speed is None or at is None or self._at is None or not self._speeds else at - self._at
             rested = self._resting and quiet and still  # at rest, nothing told it to move: it did not
             if gap is None or rested:
@@ -159,12 +179,12 @@ class TurnTracker:
         self._speeds = speeds
         self._resting = still and self._still and quiet
         self._still, self._commands = still, commands
-        self.position = round(self.position, 6)
-        if len(speeds) == 1 and abs(speeds[0]) >= STILL:
-            self.sign = 1 if speeds[0] > 0 else -1
-        elif len(speeds) == 1:
-            self.sign = 0
-        return TurnStep(self.position, self.uncertain, speeds[0] if len(speeds) == 1 else None)
+        position = self.position = round(self.position, 6)
+        if len(speeds) == 1:
+            one = speeds[0]
+            self.sign = (1 if one > 0 else -1) if abs(one) >= STILL else 0
+            return position, self.uncertain, one
+        return position, self.uncertain, None
 
     def _choose(self, shortest: float, speeds: tuple[float, ...], dt: float) -> tuple[float, float | None, bool]:
         """(step, this reading's signed speed if decided, whether the step is certain)."""

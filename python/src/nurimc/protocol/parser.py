@@ -73,6 +73,14 @@ class ParserStats:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
+def answer_unpacker(cls: type[Message], line: str = "mc") -> Any:
+    """`unpack(frame, 2)`: the ID and fields of a whole `cls` frame, as `feed` reads them (the
+    frame's checks are the caller's), if `line`'s table reads `cls`'s mode as `cls`; else None.
+    For a caller that knows which answer comes (drivers/fastpath.py)."""
+    entry = _line_table(line)[cls.SPEC.mode]
+    return entry[3] if entry is not None and entry[2] is cls else None
+
+
 class StreamParser:
     """Feed bytes, get messages. Never raises on garbage; memory stays bounded.
 

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..drivers.sync import Bus
 from ..errors import NurimcError, PortLost
-from ..procedures.group import read_states, read_states_broadcast, stagger
+from ..procedures.group import read_states, read_states_broadcast, read_states_now, stagger
 from ..procedures.motor import Motor, MotorState
 from ..procedures.stop import StopResult
 from ..protocol import FieldRangeError
@@ -458,7 +458,7 @@ class BridgeNode:
         # a motor that stopped answering is read less often (service/backoff.py): the others keep their rate
         now = self.bus.clock.now()
         due = [p for p in procedures if self.silent.due(p.id, now) and not self.silent.silent(p.id)]
-        results: dict[int, MotorState | Exception] = dict(self.bus.run(read_states(due))) if due else {}
+        results: dict[int, MotorState | Exception] = read_states_now(self.bus, due) if due else {}  # the fast path
         for p in procedures:  # a silent motor whose wait is over: one attempt, no retries
             if self.silent.silent(p.id) and self.silent.due(p.id, now):
                 try:

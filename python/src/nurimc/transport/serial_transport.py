@@ -32,8 +32,22 @@ except ImportError:  # pragma: no cover - not POSIX
     TERMIOS_ERRORS = ()
     INQ = None
 _ZERO = struct.pack("I", 0)
+#: reads of one size in a row before select() is told to wait for the whole size (_wake_at)
+STEADY = 3
 #: what setting a rate may raise (pyserial, the OS, termios)
 SET_RATE_ERRORS: tuple[type[Exception], ...] = (serial.SerialException, OSError, ValueError, *TERMIOS_ERRORS)
+
+
+def _what_came(fd: int, max_bytes: int) -> bytes:
+    """At a read's deadline with VMIN set: the bytes that came, fewer than VMIN (select() did
+    not report them), by one non-blocking read."""
+    try:
+        data = os.read(fd, max_bytes)
+    except BlockingIOError:
+        return b""
+    if not data:
+        raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+    return data
 
 
 def refuses_rate(err: Exception) -> bool:
@@ -98,6 +112,10 @@ class SerialTransport:
         #: for waiting bytes on its fd directly, a few system calls and pyserial's Python fewer a
         #: request (docs/performance.md); anything else goes through pyserial
         self._direct: int | None = self._fd if type(port) is serial.Serial and INQ is not None else None
+        #: the terminal's VMIN as this transport last set it (-1: not known, set at the next read),
+        #: and the size the last reads asked for with how many in a row (see _wake_at)
+        self._vmin = -1
+        self._asked = (0, 0)
 
     @property
     def baudrate(self) -> int:
@@ -112,6 +130,9 @@ class SerialTransport:
                 self.fixed_rate,
             )
         before = self.port.baudrate
+        # pyserial writes the termios again, with its VMIN (0), but only if something else changed
+        # (the same rate again: not written, our VMIN stays): not known, so set at the next read
+        self._vmin = -1
         try:
             self.port.baudrate = rate
         except SET_RATE_ERRORS as err:
@@ -139,6 +160,11 @@ class SerialTransport:
 
     def read(self, max_bytes: int, timeout: float) -> bytes:
         try:
+            if self._direct is not None:
+                if self._asked[0] != max_bytes or self._vmin != max_bytes:
+                    self._wake_at(self._direct, max_bytes)
+                if self._vmin > 1:
+                    return self._read_whole(self._direct, max_bytes, timeout)
             if self._fd is not None:
                 return self._read_fd(self._fd, max_bytes, timeout)
             if self.port.timeout != timeout:
@@ -146,6 +172,49 @@ class SerialTransport:
             return bytes(self.port.read(max_bytes))
         except (serial.SerialException, OSError) as err:
             raise _port_error(self.url, err) from err
+
+    def _wake_at(self, fd: int, max_bytes: int) -> None:
+        """Let select() wake this reader only once `max_bytes` have come (the terminal's VMIN,
+        which the kernel's select honours with VTIME 0): an answer that comes in pieces, as they
+        all do at wire speed, then costs one wake-up instead of one per piece (docs/performance.md).
+
+        Set only for a size asked STEADY times in a row (a polling loop: set once), and back to
+        pyserial's 0 as soon as another size is asked, so that a loop mixing sizes never changes
+        the terminal at every read (on some USB adapters a change is a USB message). VMIN above
+        what a read still needs would hold select() until the deadline: never left so."""
+        size, count = self._asked
+        count = count + 1 if size == max_bytes else 1
+        self._asked = (max_bytes, count)
+        want = max_bytes if count >= STEADY and 1 < max_bytes <= 255 else 0
+        if want != self._vmin:
+            try:
+                attrs = termios.tcgetattr(fd)
+                attrs[6][termios.VMIN] = want
+                attrs[6][termios.VTIME] = 0
+                termios.tcsetattr(fd, termios.TCSANOW, attrs)
+            except termios.error as err:  # not an OSError: the port is gone (EIO), as a read would say
+                raise OSError(*err.args) from err
+            self._vmin = want
+
+    @staticmethod
+    def _read_whole(fd: int, max_bytes: int, timeout: float) -> bytes:
+        """`_read_fd` when the terminal's VMIN is `max_bytes`: one select() until the whole of
+        it has come or the deadline, then one read of what is there (a part, at the deadline)."""
+        deadline = time.monotonic() + timeout
+        if timeout > 0 and select.select([fd], [], [], timeout)[0]:
+            data = os.read(fd, max_bytes)
+            if not data:
+                raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+            while len(data) < max_bytes:  # only where select() does not wait for VMIN bytes
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or not select.select([fd], [], [], remaining)[0]:
+                    return data + _what_came(fd, max_bytes - len(data))
+                chunk = os.read(fd, max_bytes - len(data))
+                if not chunk:
+                    raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+                data += chunk
+            return data
+        return _what_came(fd, max_bytes)  # the deadline: select() waited for all of it
 
     @staticmethod
     def _read_fd(fd: int, max_bytes: int, timeout: float) -> bytes:
@@ -168,7 +237,14 @@ class SerialTransport:
     def discard_input(self) -> bytes:
         stale = b""
         try:
-            if self._direct is not None and not struct.unpack("I", fcntl.ioctl(self._direct, INQ or 0, _ZERO))[0]:
+            if self._direct is not None:
+                fd = self._direct
+                while waiting := struct.unpack("I", fcntl.ioctl(fd, INQ or 0, _ZERO))[0]:
+                    # read on the descriptor: pyserial's read() would wait in select() for VMIN bytes
+                    chunk = os.read(fd, waiting)
+                    if not chunk:
+                        raise OSError(errno.EIO, "the port closed (adapter unplugged?)")
+                    stale += chunk
                 return stale  # the usual case: nothing waits (pyserial's in_waiting, without its Python)
             while self.port.in_waiting:
                 stale += self.port.read(self.port.in_waiting)
