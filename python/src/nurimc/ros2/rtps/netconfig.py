@@ -8,7 +8,6 @@ and our sockets are bound to the chosen interface's address, never 0.0.0.0 when 
 
 from __future__ import annotations
 
-import fcntl
 import os
 import re
 import socket
@@ -48,6 +47,10 @@ class NetConfig:
 
 def interface_address(name: str) -> str | None:
     """The IPv4 address of a network interface by name (Linux), or None."""
+    try:
+        import fcntl  # POSIX only
+    except ImportError:
+        return None
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         try:
             raw = fcntl.ioctl(s.fileno(), SIOCGIFADDR, struct.pack("256s", name.encode()[:15]))
@@ -56,14 +59,32 @@ def interface_address(name: str) -> str | None:
     return socket.inet_ntoa(raw[20:24])
 
 
+def routed_address() -> str | None:
+    """The address this host sends multicast from (no packet is sent), where interfaces cannot be listed."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.connect((MULTICAST_GROUP, 7400))
+            address: str = s.getsockname()[0]
+        except OSError:
+            return None
+    return None if address.startswith(("127.", "0.")) else address
+
+
 def local_addresses() -> list[str]:
     """Every IPv4 address of this host's interfaces but loopback (announced to other machines, a
     127.0.0.1 locator would point them at themselves); loopback only when there is nothing else."""
     found = []
-    for _, name in socket.if_nameindex():
+    try:
+        names = [name for _, name in socket.if_nameindex()]
+    except OSError:
+        names = []
+    for name in names:
         address = interface_address(name)
         if address and address not in found and not address.startswith("127."):
             found.append(address)
+    if not found:
+        routed = routed_address()
+        found = [routed] if routed else []
     return found or ["127.0.0.1"]
 
 
