@@ -341,10 +341,10 @@ def test_a_sample_from_a_writer_not_yet_discovered_is_delivered_once_it_is(loopb
     """Fast DDS's announcement of a writer often comes after the writer's first sample to us (a
     command sent right after it matched our reader): kept, and delivered when the writer is known."""
     from nurimc.ros2.rtps.netconfig import NetConfig
-    from nurimc.ros2.rtps.participant import Participant
+    from nurimc.ros2.rtps.participant import WireParticipant
 
     got: list[bytes] = []
-    ours = Participant(NetConfig(domain=int(os.environ["ROS_DOMAIN_ID"]), address="127.0.0.1", multicast=False))
+    ours = WireParticipant(NetConfig(domain=int(os.environ["ROS_DOMAIN_ID"]), address="127.0.0.1", multicast=False))
     try:
 
         def take(item: wire.Data, remote: RemoteEndpoint) -> None:

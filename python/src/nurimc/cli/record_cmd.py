@@ -13,7 +13,7 @@ from ..budgets import READ_LIMITS_HELP
 from ..errors import NurimcError
 from .common import EXIT_DEVICE, EXIT_USAGE, Number, fail, options, out, say_line
 from .i18n import tr
-from .ros2_cmd import RATE, SECONDS
+from .ros2_limits import RATE, SECONDS
 
 CHECKPOINT = Number("--checkpoint", 0.05, 60, "s")
 PORT_WAIT = Number("--port-wait", 0, 3600, "s")

@@ -14,22 +14,21 @@ import typer
 
 from ..drivers.sync import Bus
 from ..errors import NurimcError
-from .common import EXIT_DEVICE, FramePrinter, Number, Options, err, fail, options, out, parse_ids
+from .common import EXIT_DEVICE, FramePrinter, Options, err, fail, options, out, parse_ids
 from .i18n import tr
 from .motion import RAMP
-
-# Every number is checked when the options are read, before the extra, the port or DDS is touched.
-RATE = Number("--rate", 0, 10_000, "readings/s")
-SECONDS = Number("--seconds", 0.01, 1_000_000, "s")
-COMMAND_TIMEOUT = Number("--command-timeout", 0, 3600, "s")
-#: rad/s between the wire's 0.1 and 6553.3 RPM (rounded inwards to the digits shown)
-MOVE_VELOCITY = Number("--move-velocity", 0.0105, 686.2, "rad/s")
-WHEEL_RADIUS = Number("--wheel-radius", 0.001, 10, "m")
-WHEEL_SEPARATION = Number("--wheel-separation", 0.001, 100, "m")
-MAX_LINEAR = Number("--max-linear", 0.001, 100, "m/s")
-MAX_ANGULAR = Number("--max-angular", 0.001, 100, "rad/s")
-MAX_LINEAR_ACCEL = Number("--max-linear-accel", 0.001, 100, "m/s²")
-MAX_ANGULAR_ACCEL = Number("--max-angular-accel", 0.001, 100, "rad/s²")
+from .ros2_limits import (
+    COMMAND_TIMEOUT,
+    MAX_ANGULAR,
+    MAX_ANGULAR_ACCEL,
+    MAX_LINEAR,
+    MAX_LINEAR_ACCEL,
+    MOVE_VELOCITY,
+    RATE,
+    SECONDS,
+    WHEEL_RADIUS,
+    WHEEL_SEPARATION,
+)
 
 EXTRA_HINT = "this command needs the ros2 extra: pip install 'nurimc[ros2]' (cyclonedds, mcap)"
 

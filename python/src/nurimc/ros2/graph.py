@@ -15,7 +15,7 @@ with zeros). The participant also carries USER_DATA `enclave=/;` (dds.py), as rm
 # No `from __future__ import annotations`: Cyclone DDS reads the field types at run time.
 import re
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from cyclonedds.core import Policy, Qos
 from cyclonedds.idl import IdlStruct
@@ -24,7 +24,6 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from .dds import Participant
 from .names import NameError_
 
 if TYPE_CHECKING:  # to the type checker these fields are the plain values they hold
@@ -85,10 +84,17 @@ def discovery_qos() -> Qos:
     )
 
 
+class CycloneEndpoints(Protocol):
+    """What the announcer needs of dds.Participant (named here, not imported: dds imports this module)."""
+
+    participant: Any
+    endpoints: list[Any]
+
+
 class NodeAnnouncer:
     """Publishes that one node, `namespace/name`, owns every ROS endpoint of the participant."""
 
-    def __init__(self, participant: Participant, name: str, namespace: str) -> None:
+    def __init__(self, participant: CycloneEndpoints, name: str, namespace: str) -> None:
         self.participant = participant
         self.name = node_name(name)
         self.namespace = namespace

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..cli.common import Number
 from ..cli.motion import RAMP
-from ..cli.ros2_cmd import (
+from ..cli.ros2_limits import (
     COMMAND_TIMEOUT,
     MAX_ANGULAR,
     MAX_ANGULAR_ACCEL,

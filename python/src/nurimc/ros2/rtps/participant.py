@@ -42,7 +42,7 @@ class NoPortFree(OSError):
     pass
 
 
-class Participant:
+class WireParticipant:
     def __init__(self, config: NetConfig, name: str = "nurimc", user_data: bytes = b"enclave=/;") -> None:
         self.config = config
         self.prefix = bytes(wire.VENDOR) + os.urandom(10)

@@ -27,7 +27,7 @@ from typing import Any
 
 from . import wire
 from .discovery import Qos, RemoteEndpoint
-from .participant import Participant
+from .participant import WireParticipant
 
 SERVICE_QOS = Qos(reliable=True, transient_local=False, depth=10)
 CYCLONE_HEADER = 16
@@ -60,7 +60,7 @@ def related_identity(item: wire.Data, remote: RemoteEndpoint) -> bytes:
 class ServiceServer:
     def __init__(
         self,
-        participant: Participant,
+        participant: WireParticipant,
         name: str,
         request_type: Any,
         response_type: Any,

@@ -23,7 +23,7 @@ from . import wire
 from .discovery import Qos, RemoteEndpoint
 from .endpoints import Reader, Writer
 from .netconfig import from_environment
-from .participant import Participant
+from .participant import WireParticipant
 from .services import ServiceServer
 
 ROS_DEFAULT = Qos(reliable=True, transient_local=False, depth=10)
@@ -40,7 +40,7 @@ def _type_user_data(data_type: Any) -> bytes:
 
 
 class TopicWriter:
-    def __init__(self, participant: Participant, writer: Writer, ros_name: str) -> None:
+    def __init__(self, participant: WireParticipant, writer: Writer, ros_name: str) -> None:
         self._participant, self.endpoint, self.ros_name = participant, writer, ros_name
 
     @property
@@ -91,7 +91,7 @@ class RtpsParticipant:
     def __init__(self, domain: int | None = None, log: Callable[[str], None] | None = None) -> None:
         self.domain = domain_id() if domain is None else domain
         self._log = log or (lambda text: None)
-        self.rtps = Participant(from_environment(self.domain), user_data=ENCLAVE_USER_DATA)
+        self.rtps = WireParticipant(from_environment(self.domain), user_data=ENCLAVE_USER_DATA)
         self.rtps.after_receive = self._run_callbacks
         self.rtps.on_incompatible = self._incompatible
         self.endpoints: list[tuple[str, str, TopicWriter | TopicReader]] = []
@@ -192,8 +192,8 @@ class RtpsParticipant:
     def node_announcer(self, name: str, namespace: str) -> NodeAnnouncement:
         return NodeAnnouncement(self, node_name(name), namespace)
 
-    def qos_watch(self, log: Callable[[str], None]) -> IncompatibleWriters:
-        watch = IncompatibleWriters(self, log)
+    def qos_watch(self, log: Callable[[str], None]) -> BestEffortCommandWriters:
+        watch = BestEffortCommandWriters(self, log)
         self.on_incompatible_qos = watch.on_incompatible
         return watch
 
@@ -228,7 +228,7 @@ class NodeAnnouncement:
         self.participant.announce_node(self.name, self.namespace)
 
 
-class IncompatibleWriters:
+class BestEffortCommandWriters:
     """Who publishes a command topic best effort (our readers take reliable: no match, nothing moves),
     said once per writer, by node name when ros_discovery_info names it (qoswatch.py's lines)."""
 
