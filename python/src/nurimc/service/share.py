@@ -536,8 +536,16 @@ class Connection:
         try:
             send_message(self.sock, {"id": rid, "op": op, **fields})
             reply = answer.get(timeout=timeout)
-        except (OSError, queue.Empty) as error:
-            raise HolderGone(f"the nurimc program holding {self.port} does not answer: {error}") from error
+        except OSError as error:  # the connection is closed: the holder ended (its goodbye may not have come yet)
+            raise HolderGone(
+                f"the nurimc program holding {self.port} has ended ({error}); run the command again (it opens "
+                "the port itself now)"
+            ) from error
+        except queue.Empty as error:
+            raise HolderGone(
+                f"the nurimc program holding {self.port} does not answer within {timeout:g} s: see "
+                f"`nurimc --port {self.port} clients`, or stop it and run the command again"
+            ) from error
         if not reply.get("ok"):
             text = str(reply.get("error"))
             if reply.get("kind") == "HolderGone":
