@@ -28,6 +28,7 @@ HEARTBEAT_PERIOD = 0.2
 LEASE = 20.0
 TICK = 0.05
 MAX_DATAGRAM = 65536
+RECV_BATCH = 64  # datagrams taken from a socket per wake-up
 UNKNOWN_KEEP = 2.0  # s a not-yet-discovered writer's submessages are kept for replay
 UNKNOWN_PER_WRITER = 16
 UNKNOWN_WRITERS = 64
@@ -268,14 +269,18 @@ class WireParticipant:
             except (OSError, ValueError):
                 return  # closed under us
             for s in ready:
-                try:
-                    datagram, _ = s.recvfrom(MAX_DATAGRAM)
-                except OSError:
-                    continue
-                try:
-                    self._receive(datagram)
-                except (wire.WireError, struct.error, IndexError, UnicodeDecodeError):
-                    continue  # garbage or a peer we cannot read: dropped, never fatal
+                # what has arrived, up to RECV_BATCH datagrams, before the readers' callbacks run
+                # once: a flood of commands costs one select() and one callback per batch
+                for _ in range(RECV_BATCH):
+                    try:
+                        datagram = s.recv(MAX_DATAGRAM, socket.MSG_DONTWAIT)
+                    except OSError:  # nothing more (BlockingIOError), or the socket closed
+                        break
+                    try:
+                        self._receive(datagram, callbacks=False)
+                    except (wire.WireError, struct.error, IndexError, UnicodeDecodeError):
+                        continue  # garbage or a peer we cannot read: dropped, never fatal
+            self._run_deferred()
             now = time.monotonic()
             if now >= next_spdp:
                 next_spdp = now + SPDP_PERIOD
@@ -293,7 +298,8 @@ class WireParticipant:
         remote = self.remote.get(item.prefix)
         return remote is not None and item.locators == remote.metatraffic
 
-    def _receive(self, datagram: bytes) -> None:
+    def _receive(self, datagram: bytes, callbacks: bool = True) -> None:
+        """One datagram; the readers' callbacks it makes due run now, or at `_run_deferred()`."""
         vendor, source, subs = wire.parse_message(datagram)
         if source == self.prefix:
             return
@@ -306,8 +312,13 @@ class WireParticipant:
                 remote = self.remote.get(sub.source)
                 if remote is not None:
                     remote.last_seen = time.monotonic()
-            calls, self._deferred[:] = list(self._deferred), []
         self._send(out)
+        if callbacks:
+            self._run_deferred()
+
+    def _run_deferred(self) -> None:
+        with self._lock:
+            calls, self._deferred[:] = list(self._deferred), []
         if calls:
             self.after_receive(calls)
 

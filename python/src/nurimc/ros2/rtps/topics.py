@@ -61,6 +61,7 @@ class TopicReader:
         self.data_type, self.ros_name, self._on_data = data_type, ros_name, on_data
         self._samples: deque[Any] = deque(maxlen=MAX_BUFFERED)
         self._lock = threading.Lock()
+        self._scheduled = False  # a callback is due (one per batch of samples, as a DDS listener)
         self.endpoint: Reader | None = None
 
     @property
@@ -76,8 +77,16 @@ class TopicReader:
             return None  # bytes that are not this type: a misbehaving peer, dropped
         with self._lock:
             self._samples.append(sample)
-        on_data = self._on_data
-        return (lambda: on_data(self)) if on_data is not None else None
+            if self._on_data is None or self._scheduled:
+                return None  # the callback already due takes this sample too
+            self._scheduled = True
+        return self._call
+
+    def _call(self) -> None:
+        with self._lock:
+            self._scheduled = False
+        if self._on_data is not None:
+            self._on_data(self)
 
     def take(self, N: int = 1) -> list[Any]:
         with self._lock:
