@@ -216,7 +216,7 @@ class WireParticipant:
         return remote.topic == topic and remote.type_name == type_name
 
     # -- sending -----------------------------------------------------------------------------
-    def _send(self, out: list[Outgoing], stamp: bool = False, meta: bool = False) -> None:
+    def _send(self, out: list[Outgoing], stamp: bool = False) -> None:
         if self._closed.is_set():
             return
         head = wire.header(self.prefix)
@@ -227,7 +227,7 @@ class WireParticipant:
             message = head + wire.info_dst(item.prefix) + ts + item.submessages
             for locator in item.locators:
                 try:
-                    (self._meta if meta else self._user).sendto(message, (locator.host, locator.port))
+                    self._user.sendto(message, (locator.host, locator.port))
                 except OSError:
                     continue  # an unreachable locator of a peer: others may work
 
@@ -291,12 +291,7 @@ class WireParticipant:
                 next_beat = now + HEARTBEAT_PERIOD
                 with self._lock:
                     out = [o for w in self.writers.values() for o in w.periodic()]
-                self._send([o for o in out if not self._is_builtin(o)])
-                self._send([o for o in out if self._is_builtin(o)], meta=True)
-
-    def _is_builtin(self, item: Outgoing) -> bool:
-        remote = self.remote.get(item.prefix)
-        return remote is not None and item.locators == remote.metatraffic
+                self._send(out)
 
     def _receive(self, datagram: bytes, callbacks: bool = True) -> None:
         """One datagram; the readers' callbacks it makes due run now, or at `_run_deferred()`."""
@@ -405,7 +400,7 @@ class WireParticipant:
             (self.sedp_sub_reader, wire.SEDP_SUB_WRITER),
         ):
             out += reader.match(self._builtin_remote(found, remote_entity))
-        self._send(out, meta=True)
+        self._send(out)
 
     @staticmethod
     def _builtin_remote(found: RemoteParticipant, entity: bytes) -> RemoteEndpoint:
