@@ -139,7 +139,10 @@ def port_refusal(url: str) -> str | None:
     if scheme == "sim":
         from urllib.parse import parse_qs, urlsplit
 
-        options = parse_qs(urlsplit(text).query, keep_blank_values=True)
+        try:
+            options = parse_qs(urlsplit(text).query, keep_blank_values=True)
+        except ValueError as error:  # e.g. an unclosed '[' reads as a broken IPv6 address
+            return f"{text!r} is not a URL the simulator takes ({error}): give sim://?ids=1,2"
         touching = sorted(name for name in options if name.lower() in SIM_FILE_OPTIONS)
         if touching:
             return (
